@@ -1,0 +1,109 @@
+//! The robot as the simulator and the CLI need it: a rigid chassis, two drive wheels,
+//! passive casters and the poses of every link (sensor mounts) in the base frame.
+
+use crate::diff_drive::DiffDrive;
+use crate::error::RobotError;
+use nalgebra::{Isometry3, Vector3};
+use std::path::Path;
+
+/// A collision primitive, in its own frame (URDF conventions: a cylinder's axis is local z).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    Box { size: [f64; 3] },
+    Cylinder { radius: f64, length: f64 },
+    Sphere { radius: f64 },
+}
+
+/// A shape placed in the robot's base frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShapeInstance {
+    /// The URDF link it came from.
+    pub link: String,
+    pub shape: Shape,
+    /// Pose of the shape's frame in the base frame.
+    pub pose: Isometry3<f64>,
+}
+
+/// A driven wheel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wheel {
+    pub joint: String,
+    pub link: String,
+    /// Wheel centre in the base frame.
+    pub center: Vector3<f64>,
+    /// Unit joint axis in the base frame, as the URDF states it (after the joint origin's
+    /// rotation). Its sign matters: a positive joint velocity about `axis` drives the robot
+    /// forward when `axis` points to +y (left).
+    pub axis: Vector3<f64>,
+    pub radius: f64,
+    pub width: f64,
+    /// kg; defaulted by the loader when the URDF gives none.
+    pub mass: f64,
+}
+
+/// A passive support (caster wheel, ball or skid) modelled as a frictionless sphere.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Caster {
+    pub link: String,
+    /// Centre of the support sphere in the base frame.
+    pub center: Vector3<f64>,
+    pub radius: f64,
+}
+
+/// A link's pose in the base frame: where sensors are mounted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkMount {
+    pub name: String,
+    pub pose: Isometry3<f64>,
+}
+
+/// A differential-drive robot derived from a URDF.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotModel {
+    pub name: String,
+    /// The URDF's root link; its floor projection is the robot's planar pose.
+    pub base_link: String,
+    /// Collision shapes of every link rigidly attached to the base (not wheels or casters).
+    pub chassis_shapes: Vec<ShapeInstance>,
+    /// Mass of everything except the drive wheels (casters included), kg.
+    pub chassis_mass: f64,
+    pub left_wheel: Wheel,
+    pub right_wheel: Wheel,
+    pub casters: Vec<Caster>,
+    /// Every link, including the base (identity) and the wheels.
+    pub mounts: Vec<LinkMount>,
+    /// Mean of the two drive wheels' radii, m.
+    pub wheel_radius: f64,
+    /// Distance between the two drive wheels' contact points, m.
+    pub wheel_separation: f64,
+    /// Height of the base frame's origin above the floor when the wheels touch it, m.
+    pub base_height: f64,
+}
+
+impl RobotModel {
+    /// Loads a plain (non-xacro) URDF file.
+    pub fn from_urdf(path: &Path) -> Result<Self, RobotError> {
+        crate::urdf::load_file(path)
+    }
+
+    /// Parses URDF text; `source` names it in error messages.
+    pub fn from_urdf_str(text: &str, source: &str) -> Result<Self, RobotError> {
+        crate::urdf::load_str(text, source)
+    }
+
+    pub fn drive(&self) -> DiffDrive {
+        DiffDrive {
+            wheel_radius: self.wheel_radius,
+            wheel_separation: self.wheel_separation,
+        }
+    }
+
+    pub fn mount(&self, link: &str) -> Option<&LinkMount> {
+        self.mounts.iter().find(|m| m.name == link)
+    }
+
+    /// Total mass, kg.
+    pub fn mass(&self) -> f64 {
+        self.chassis_mass + self.left_wheel.mass + self.right_wheel.mass
+    }
+}

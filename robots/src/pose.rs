@@ -1,0 +1,99 @@
+//! Planar poses (REP-103: x forward, y left, yaw counter-clockwise from +x).
+
+use serde::{Deserialize, Serialize};
+
+/// Wraps an angle into (-π, π].
+pub fn normalize_angle(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let mut r = a % two_pi;
+    if r <= -std::f64::consts::PI {
+        r += two_pi;
+    } else if r > std::f64::consts::PI {
+        r -= two_pi;
+    }
+    r
+}
+
+/// A planar pose: position in metres, heading in radians.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose2 {
+    pub x: f64,
+    pub y: f64,
+    pub theta: f64,
+}
+
+impl Pose2 {
+    pub const fn new(x: f64, y: f64, theta: f64) -> Self {
+        Self { x, y, theta }
+    }
+
+    /// `self ⊕ other`: `other` expressed in `self`'s frame, taken to the parent frame.
+    pub fn compose(&self, other: &Pose2) -> Pose2 {
+        let (s, c) = self.theta.sin_cos();
+        Pose2 {
+            x: self.x + c * other.x - s * other.y,
+            y: self.y + s * other.x + c * other.y,
+            theta: normalize_angle(self.theta + other.theta),
+        }
+    }
+
+    pub fn inverse(&self) -> Pose2 {
+        let (s, c) = self.theta.sin_cos();
+        Pose2 {
+            x: -c * self.x - s * self.y,
+            y: s * self.x - c * self.y,
+            theta: normalize_angle(-self.theta),
+        }
+    }
+
+    /// The pose of `other` seen from `self` (`self⁻¹ ⊕ other`).
+    pub fn between(&self, other: &Pose2) -> Pose2 {
+        self.inverse().compose(other)
+    }
+
+    /// A point given in this pose's frame, expressed in the parent frame.
+    pub fn transform_point(&self, p: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.theta.sin_cos();
+        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
+    }
+
+    pub fn distance(&self, other: &Pose2) -> f64 {
+        (self.x - other.x).hypot(self.y - other.y)
+    }
+
+    /// Absolute heading difference, wrapped, in radians.
+    pub fn heading_error(&self, other: &Pose2) -> f64 {
+        normalize_angle(self.theta - other.theta).abs()
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    #[test]
+    fn normalize_wraps_into_half_open_interval() {
+        assert!((normalize_angle(3.0 * PI) - PI).abs() < 1e-12);
+        assert!((normalize_angle(-PI) - PI).abs() < 1e-12);
+        assert!((normalize_angle(0.5) - 0.5).abs() < 1e-12);
+        assert!((normalize_angle(-2.0 * PI - 0.25) + 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn compose_then_between_round_trips() {
+        let a = Pose2::new(1.0, 2.0, FRAC_PI_2);
+        let d = Pose2::new(0.5, -0.2, 0.3);
+        let b = a.compose(&d);
+        // Hand-computed: rotate (0.5, -0.2) by 90° -> (0.2, 0.5).
+        assert!((b.x - 1.2).abs() < 1e-12 && (b.y - 2.5).abs() < 1e-12);
+        let back = a.between(&b);
+        assert!((back.x - d.x).abs() < 1e-12);
+        assert!((back.y - d.y).abs() < 1e-12);
+        assert!((back.theta - d.theta).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,1 @@
+//! Physics simulation (being written).

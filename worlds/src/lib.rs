@@ -1,0 +1,12 @@
+//! Indoor worlds: walls, pillars, materials and named regions, loaded from TOML and
+//! validated; plus the maps a localizer may know (vector map of line segments, occupancy
+//! grid), exported with or without glass.
+
+pub mod error;
+pub mod geometry;
+pub mod map;
+pub mod world;
+
+pub use error::WorldError;
+pub use map::{Cell, OccupancyGrid, Segment, VectorMap};
+pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World};
