@@ -37,7 +37,9 @@ pub struct Wheel {
     pub axis: Vector3<f64>,
     pub radius: f64,
     pub width: f64,
-    /// kg; defaulted by the loader when the URDF gives none.
+    /// kg, from the wheel link's `<inertial><mass>`. When the URDF gives 0 or no inertial at
+    /// all, the loader uses 2 % of the chassis mass (a light wheel that still has inertia for
+    /// the physics solver) and says so in [`RobotModel::warnings`].
     pub mass: f64,
 }
 
@@ -55,6 +57,17 @@ pub struct Caster {
 pub struct LinkMount {
     pub name: String,
     pub pose: Isometry3<f64>,
+}
+
+impl LinkMount {
+    /// Translation (m) and URDF roll, pitch, yaw (rad) of the link in the base frame, the
+    /// inverse of a URDF `<origin xyz rpy>`: the rotation is Rz(yaw)·Ry(pitch)·Rx(roll).
+    pub fn xyz_rpy(&self) -> ([f64; 3], [f64; 3]) {
+        let t = self.pose.translation.vector;
+        // nalgebra's Euler angles use the same fixed-axis x-y-z convention as URDF.
+        let (roll, pitch, yaw) = self.pose.rotation.euler_angles();
+        ([t.x, t.y, t.z], [roll, pitch, yaw])
+    }
 }
 
 /// A differential-drive robot derived from a URDF.
@@ -78,6 +91,9 @@ pub struct RobotModel {
     pub wheel_separation: f64,
     /// Height of the base frame's origin above the floor when the wheels touch it, m.
     pub base_height: f64,
+    /// Human-readable notes about what the loader could not use or had to assume (mesh-only
+    /// links, defaulted wheel masses, joints held at zero, ...). Empty for a clean URDF.
+    pub warnings: Vec<String>,
 }
 
 impl RobotModel {

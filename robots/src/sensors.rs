@@ -1,7 +1,124 @@
 //! Sensor specifications: what a sensor is, where it is mounted and how it errs. A robot's
 //! sensor file (`<robot>.sensors.toml` beside its URDF) lists them; a scenario may override.
 
+use crate::error::RobotError;
+use crate::model::RobotModel;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Every field of [`LaserSpec`], as named in TOML.
+const LASER_FIELDS: [&str; 12] = [
+    "name",
+    "mount",
+    "rate_hz",
+    "beams",
+    "fov",
+    "range_min",
+    "range_max",
+    "sigma_hit",
+    "p_short",
+    "lambda_short",
+    "p_max",
+    "p_rand",
+];
+
+/// Every field of [`OdometrySpec`], as named in TOML.
+const ODOMETRY_FIELDS: [&str; 4] = [
+    "ticks_per_rev",
+    "radius_error",
+    "separation_error",
+    "rate_hz",
+];
+
+const PRESETS: [&str; 2] = ["sick_lms200", "hokuyo_urg04lx"];
+
+fn type_name(v: &toml::Value) -> &'static str {
+    match v {
+        toml::Value::String(_) => "a string",
+        toml::Value::Integer(_) => "an integer",
+        toml::Value::Float(_) => "a float",
+        toml::Value::Boolean(_) => "a boolean",
+        toml::Value::Datetime(_) => "a date",
+        toml::Value::Array(_) => "an array",
+        toml::Value::Table(_) => "a table",
+    }
+}
+
+/// A number field; TOML integers are accepted because `rate_hz = 10` is natural to write.
+fn number(table: &toml::Table, key: &str, field: &str) -> Result<Option<f64>, String> {
+    match table.get(key) {
+        None => Ok(None),
+        Some(toml::Value::Float(f)) => Ok(Some(*f)),
+        Some(toml::Value::Integer(i)) => Ok(Some(*i as f64)),
+        Some(v) => Err(format!(
+            "{field}.{key}: expected a number, got {}",
+            type_name(v)
+        )),
+    }
+}
+
+/// An integer field that must be at least 1 and fit `T`.
+fn count<T: TryFrom<i64>>(
+    table: &toml::Table,
+    key: &str,
+    field: &str,
+) -> Result<Option<T>, String> {
+    match table.get(key) {
+        None => Ok(None),
+        Some(toml::Value::Integer(i)) if *i < 1 => {
+            Err(format!("{field}.{key}: must be at least 1 (got {i})"))
+        }
+        Some(toml::Value::Integer(i)) => T::try_from(*i)
+            .map(Some)
+            .map_err(|_| format!("{field}.{key}: {i} is too large")),
+        Some(v) => Err(format!(
+            "{field}.{key}: expected an integer, got {}",
+            type_name(v)
+        )),
+    }
+}
+
+fn string(table: &toml::Table, key: &str, field: &str) -> Result<Option<String>, String> {
+    match table.get(key) {
+        None => Ok(None),
+        Some(toml::Value::String(s)) if s.trim().is_empty() => {
+            Err(format!("{field}.{key}: must not be empty"))
+        }
+        Some(toml::Value::String(s)) => Ok(Some(s.clone())),
+        Some(v) => Err(format!(
+            "{field}.{key}: expected a string, got {}",
+            type_name(v)
+        )),
+    }
+}
+
+fn reject_unknown(table: &toml::Table, known: &[&str], field: &str) -> Result<(), String> {
+    match table.keys().find(|k| !known.contains(&k.as_str())) {
+        Some(k) => Err(format!(
+            "{field}.{k}: unknown key (expected one of {})",
+            known.join(", ")
+        )),
+        None => Ok(()),
+    }
+}
+
+fn finite(value: f64, name: &str) -> Result<(), String> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{name}: must be finite (got {value})"))
+    }
+}
+
+fn probability(value: f64, name: &str) -> Result<(), String> {
+    if (0.0..=1.0).contains(&value) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name}: must be a probability in [0, 1] (got {value})"
+        ))
+    }
+}
 
 /// A planar laser rangefinder with the beam model's error terms (Thrun et al., ch. 6.3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -72,6 +189,126 @@ impl LaserSpec {
         }
     }
 
+    /// Reads a laser from a TOML table: `preset` (required unless every field is given) plus
+    /// any [`LaserSpec`] field, which overrides the preset; `name` and `mount` are always
+    /// required. `field` is the table's path (e.g. `sensors.laser`) and prefixes every error:
+    /// `"sensors.laser.beams: must be at least 1 (got 0)"`. Unknown keys are errors.
+    pub fn from_table(table: &toml::Table, field: &str) -> Result<LaserSpec, String> {
+        let mut known = LASER_FIELDS.to_vec();
+        known.push("preset");
+        reject_unknown(table, &known, field)?;
+        let name = string(table, "name", field)?.ok_or_else(|| format!("{field}.name: missing"))?;
+        let mount = string(table, "mount", field)?.ok_or_else(|| {
+            format!("{field}.mount: missing (the URDF link the laser frame is attached to)")
+        })?;
+        let mut spec = match string(table, "preset", field)? {
+            Some(preset) => Self::preset(&preset, &name, &mount).ok_or_else(|| {
+                format!(
+                    "{field}.preset: unknown preset {preset:?} (known: {})",
+                    PRESETS.join(", ")
+                )
+            })?,
+            None => {
+                let missing: Vec<&str> = LASER_FIELDS
+                    .iter()
+                    .copied()
+                    .filter(|k| !table.contains_key(*k))
+                    .collect();
+                if !missing.is_empty() {
+                    return Err(format!(
+                        "{field}: no preset given, so every field is needed; missing: {} \
+                         (or set preset = one of {})",
+                        missing.join(", "),
+                        PRESETS.join(", ")
+                    ));
+                }
+                // Every field is overwritten below.
+                Self::sick_lms200(&name, &mount)
+            }
+        };
+        if let Some(beams) = count(table, "beams", field)? {
+            spec.beams = beams;
+        }
+        let numbers: [(&str, &mut f64); 9] = [
+            ("rate_hz", &mut spec.rate_hz),
+            ("fov", &mut spec.fov),
+            ("range_min", &mut spec.range_min),
+            ("range_max", &mut spec.range_max),
+            ("sigma_hit", &mut spec.sigma_hit),
+            ("p_short", &mut spec.p_short),
+            ("lambda_short", &mut spec.lambda_short),
+            ("p_max", &mut spec.p_max),
+            ("p_rand", &mut spec.p_rand),
+        ];
+        for (key, slot) in numbers {
+            if let Some(v) = number(table, key, field)? {
+                *slot = v;
+            }
+        }
+        spec.validate().map_err(|msg| format!("{field}.{msg}"))?;
+        Ok(spec)
+    }
+
+    /// Checks every number; the error names the field, e.g. `"beams: must be at least 1 (got 0)"`.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("rate_hz", self.rate_hz),
+            ("fov", self.fov),
+            ("range_min", self.range_min),
+            ("range_max", self.range_max),
+            ("sigma_hit", self.sigma_hit),
+            ("p_short", self.p_short),
+            ("lambda_short", self.lambda_short),
+            ("p_max", self.p_max),
+            ("p_rand", self.p_rand),
+        ] {
+            finite(v, name)?;
+        }
+        if self.name.trim().is_empty() {
+            return Err("name: must not be empty".into());
+        }
+        if self.mount.trim().is_empty() {
+            return Err("mount: must not be empty".into());
+        }
+        if self.rate_hz <= 0.0 {
+            return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
+        }
+        if self.beams < 1 {
+            return Err(format!("beams: must be at least 1 (got {})", self.beams));
+        }
+        if !(self.fov > 0.0 && self.fov <= std::f64::consts::TAU) {
+            return Err(format!("fov: must be in (0, 2π] rad (got {})", self.fov));
+        }
+        if self.range_min < 0.0 {
+            return Err(format!("range_min: must be >= 0 (got {})", self.range_min));
+        }
+        if self.range_max <= self.range_min {
+            return Err(format!(
+                "range_max: must be greater than range_min = {} (got {})",
+                self.range_min, self.range_max
+            ));
+        }
+        if self.sigma_hit < 0.0 {
+            return Err(format!("sigma_hit: must be >= 0 (got {})", self.sigma_hit));
+        }
+        if self.lambda_short <= 0.0 {
+            return Err(format!(
+                "lambda_short: must be > 0 (got {})",
+                self.lambda_short
+            ));
+        }
+        probability(self.p_short, "p_short")?;
+        probability(self.p_max, "p_max")?;
+        probability(self.p_rand, "p_rand")?;
+        let sum = self.p_short + self.p_max + self.p_rand;
+        if sum > 1.0 {
+            return Err(format!(
+                "p_rand: p_short + p_max + p_rand must be <= 1 (got {sum})"
+            ));
+        }
+        Ok(())
+    }
+
     pub fn angle_min(&self) -> f64 {
         -0.5 * self.fov
     }
@@ -99,6 +336,59 @@ pub struct OdometrySpec {
     pub rate_hz: f64,
 }
 
+impl OdometrySpec {
+    /// Reads odometry from a TOML table; missing fields keep [`OdometrySpec::default`].
+    /// `field` prefixes every error, e.g. `"odometry.ticks_per_rev: must be at least 1 (got 0)"`.
+    pub fn from_table(table: &toml::Table, field: &str) -> Result<OdometrySpec, String> {
+        reject_unknown(table, &ODOMETRY_FIELDS, field)?;
+        let mut spec = OdometrySpec::default();
+        if let Some(t) = count(table, "ticks_per_rev", field)? {
+            spec.ticks_per_rev = t;
+        }
+        for (key, slot) in [
+            ("radius_error", &mut spec.radius_error),
+            ("separation_error", &mut spec.separation_error),
+            ("rate_hz", &mut spec.rate_hz),
+        ] {
+            if let Some(v) = number(table, key, field)? {
+                *slot = v;
+            }
+        }
+        spec.validate().map_err(|msg| format!("{field}.{msg}"))?;
+        Ok(spec)
+    }
+
+    /// Checks every number; the error names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        finite(self.radius_error, "radius_error")?;
+        finite(self.separation_error, "separation_error")?;
+        finite(self.rate_hz, "rate_hz")?;
+        if self.ticks_per_rev < 1 {
+            return Err(format!(
+                "ticks_per_rev: must be at least 1 (got {})",
+                self.ticks_per_rev
+            ));
+        }
+        // Half the radius or half the track wrong is no longer a calibration error.
+        if self.radius_error.abs() >= 0.5 {
+            return Err(format!(
+                "radius_error: must be within (-0.5, 0.5) (got {})",
+                self.radius_error
+            ));
+        }
+        if self.separation_error.abs() >= 0.5 {
+            return Err(format!(
+                "separation_error: must be within (-0.5, 0.5) (got {})",
+                self.separation_error
+            ));
+        }
+        if self.rate_hz <= 0.0 {
+            return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
+        }
+        Ok(())
+    }
+}
+
 impl Default for OdometrySpec {
     fn default() -> Self {
         Self {
@@ -115,4 +405,118 @@ impl Default for OdometrySpec {
 pub struct RobotSensors {
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,
+}
+
+/// The sensor file's layout, for writing it back.
+#[derive(Serialize)]
+struct SensorFile<'a> {
+    odometry: &'a OdometrySpec,
+    laser: &'a [LaserSpec],
+}
+
+impl RobotSensors {
+    /// The sensor file that belongs to a URDF: `<stem>.sensors.toml` in the same directory.
+    pub fn path_beside(urdf: &Path) -> PathBuf {
+        let stem = urdf.file_stem().unwrap_or_default().to_string_lossy();
+        urdf.with_file_name(format!("{stem}.sensors.toml"))
+    }
+
+    /// Reads and validates a sensor file.
+    pub fn load(path: &Path) -> Result<RobotSensors, RobotError> {
+        let text = std::fs::read_to_string(path).map_err(|err| RobotError::Io {
+            source_name: path.display().to_string(),
+            err,
+        })?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses sensor-file text: an optional `[odometry]` table (missing fields take
+    /// [`OdometrySpec::default`]) and any number of `[[laser]]` tables (see
+    /// [`LaserSpec::from_table`]). `path` names the file in errors.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<RobotSensors, RobotError> {
+        let invalid = |msg: String| RobotError::Invalid {
+            source_name: path.display().to_string(),
+            msg,
+        };
+        let table: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| invalid(format!("TOML: {e}")))?;
+        if let Some(key) = table.keys().find(|k| *k != "odometry" && *k != "laser") {
+            return Err(RobotError::Field {
+                file: path.to_path_buf(),
+                field: key.clone(),
+                msg: "unknown key (expected odometry, laser)".into(),
+            });
+        }
+        let odometry = match table.get("odometry") {
+            None => OdometrySpec::default(),
+            Some(toml::Value::Table(t)) => {
+                OdometrySpec::from_table(t, "odometry").map_err(invalid)?
+            }
+            Some(v) => {
+                return Err(invalid(format!(
+                    "odometry: expected a table ([odometry]), got {}",
+                    type_name(v)
+                )))
+            }
+        };
+        let mut lasers: Vec<LaserSpec> = Vec::new();
+        match table.get("laser") {
+            None => {}
+            Some(toml::Value::Array(items)) => {
+                for (i, item) in items.iter().enumerate() {
+                    let field = format!("laser[{i}]");
+                    let toml::Value::Table(t) = item else {
+                        return Err(invalid(format!(
+                            "{field}: expected a table ([[laser]]), got {}",
+                            type_name(item)
+                        )));
+                    };
+                    let spec = LaserSpec::from_table(t, &field).map_err(invalid)?;
+                    if lasers.iter().any(|l| l.name == spec.name) {
+                        return Err(invalid(format!(
+                            "{field}.name: {:?} is already the name of another laser",
+                            spec.name
+                        )));
+                    }
+                    lasers.push(spec);
+                }
+            }
+            Some(v) => {
+                return Err(invalid(format!(
+                    "laser: expected an array of tables ([[laser]]), got {}",
+                    type_name(v)
+                )))
+            }
+        }
+        Ok(RobotSensors { odometry, lasers })
+    }
+
+    /// The sensor file text for these sensors (every field explicit, no presets), which
+    /// [`RobotSensors::from_toml_str`] reads back to an equal value.
+    pub fn to_toml_string(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string(&SensorFile {
+            odometry: &self.odometry,
+            laser: &self.lasers,
+        })
+    }
+
+    /// Checks that every sensor is mounted on a link of `model`.
+    pub fn check_mounts(&self, model: &RobotModel) -> Result<(), RobotError> {
+        for laser in &self.lasers {
+            if model.mount(&laser.mount).is_none() {
+                let links: Vec<&str> = model.mounts.iter().map(|m| m.name.as_str()).collect();
+                return Err(RobotError::Invalid {
+                    source_name: format!("sensors of robot {:?}", model.name),
+                    msg: format!(
+                        "laser {:?}: mount {:?} is not a link of the robot (links: {})",
+                        laser.name,
+                        laser.mount,
+                        links.join(", ")
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
 }
