@@ -4,9 +4,10 @@
 
 pub mod error;
 pub mod geometry;
+pub mod loader;
 pub mod map;
 pub mod world;
 
-pub use error::WorldError;
+pub use error::{MapError, WorldError};
 pub use map::{Cell, OccupancyGrid, Segment, VectorMap};
-pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World};
+pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World, CAMPUS_TOML};

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::geometry::{distance, point_in_polygon, wall_corners, wall_signed_distance};
+
 /// What a laser beam does at a surface of this material.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -67,4 +69,179 @@ pub struct World {
     pub walls: Vec<Wall>,
     pub pillars: Vec<Pillar>,
     pub regions: Vec<Region>,
+}
+
+/// The bundled campus world's TOML text (`worlds/campus.toml`).
+pub const CAMPUS_TOML: &str = include_str!("../campus.toml");
+
+impl World {
+    /// The bundled campus world (see `worlds/campus.toml` for its layout and anchors).
+    pub fn campus() -> Result<World, crate::WorldError> {
+        World::from_toml_str(CAMPUS_TOML, std::path::Path::new("worlds/campus.toml"))
+    }
+
+    /// The material called `name`.
+    pub fn material(&self, name: &str) -> Option<&Material> {
+        self.materials.iter().find(|m| m.name == name)
+    }
+
+    /// Whether `material` is see-through for a laser (except near normal incidence). Unknown
+    /// names count as opaque: the loader never produces them.
+    pub fn is_glass(&self, material: &str) -> bool {
+        matches!(
+            self.material(material).map(|m| m.laser),
+            Some(LaserBehaviour::Glass { .. })
+        )
+    }
+
+    /// Axis-aligned bounds `(min, max)` of every solid (wall footprints and pillars); both
+    /// `[0, 0]` for a world without solids.
+    pub fn bounds(&self) -> ([f64; 2], [f64; 2]) {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for w in &self.walls {
+            for c in wall_corners(w.a, w.b, w.thickness) {
+                for k in 0..2 {
+                    lo[k] = lo[k].min(c[k]);
+                    hi[k] = hi[k].max(c[k]);
+                }
+            }
+        }
+        for p in &self.pillars {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p.center[k] - p.radius);
+                hi[k] = hi[k].max(p.center[k] + p.radius);
+            }
+        }
+        if lo[0] > hi[0] {
+            return ([0.0; 2], [0.0; 2]);
+        }
+        (lo, hi)
+    }
+
+    /// The first region (in file order) whose polygon contains `p`.
+    pub fn region_at(&self, p: [f64; 2]) -> Option<&Region> {
+        self.regions
+            .iter()
+            .find(|r| point_in_polygon(p, &r.polygon))
+    }
+
+    /// Distance from `p` to the nearest solid (wall footprint or pillar, glass included since
+    /// a robot cannot drive through it); `<= 0` inside one, infinite with no solids.
+    pub fn clearance(&self, p: [f64; 2]) -> f64 {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            // NaN compares false, so `is_free` rejects a non-finite point.
+            return f64::NAN;
+        }
+        let walls = self
+            .walls
+            .iter()
+            .map(|w| wall_signed_distance(p, w.a, w.b, w.thickness));
+        let pillars = self
+            .pillars
+            .iter()
+            .map(|c| distance(p, c.center) - c.radius);
+        walls.chain(pillars).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Whether a disc of `radius` centred at `p` stays clear of every solid.
+    pub fn is_free(&self, p: [f64; 2], radius: f64) -> bool {
+        self.clearance(p) > radius
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn world() -> World {
+        World {
+            name: "w".into(),
+            ceiling_height: 3.0,
+            materials: vec![
+                Material {
+                    name: "concrete".into(),
+                    laser: LaserBehaviour::Opaque,
+                },
+                Material {
+                    name: "glass".into(),
+                    laser: LaserBehaviour::Glass {
+                        reflect_within_deg: 5.0,
+                    },
+                },
+            ],
+            // A 0.2 m wall x ∈ [0, 10] on y = 0 and a glass wall x = 10, y ∈ [0, 5].
+            walls: vec![
+                Wall {
+                    a: [0.0, 0.0],
+                    b: [10.0, 0.0],
+                    thickness: 0.2,
+                    height: 3.0,
+                    material: "concrete".into(),
+                },
+                Wall {
+                    a: [10.0, 0.0],
+                    b: [10.0, 5.0],
+                    thickness: 0.05,
+                    height: 3.0,
+                    material: "glass".into(),
+                },
+            ],
+            pillars: vec![Pillar {
+                center: [3.0, 4.0],
+                radius: 0.5,
+                height: 3.0,
+                material: "concrete".into(),
+            }],
+            regions: vec![
+                Region {
+                    name: "a".into(),
+                    kind: RegionKind::Room,
+                    polygon: vec![[0.0, 0.0], [5.0, 0.0], [5.0, 5.0], [0.0, 5.0]],
+                },
+                Region {
+                    name: "b".into(),
+                    kind: RegionKind::Atrium,
+                    polygon: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 5.0], [0.0, 5.0]],
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn materials_and_bounds() {
+        let w = world();
+        assert!(w.material("glass").is_some());
+        assert!(w.material("wood").is_none());
+        assert!(w.is_glass("glass") && !w.is_glass("concrete") && !w.is_glass("wood"));
+        // x: concrete from 0 to glass's outer face 10.025; y: concrete's lower face to 5.
+        assert_eq!(w.bounds(), ([0.0, -0.1], [10.025, 5.0]));
+    }
+
+    #[test]
+    fn region_at_takes_the_first_match() {
+        let w = world();
+        assert_eq!(w.region_at([1.0, 1.0]).unwrap().name, "a");
+        assert_eq!(w.region_at([7.0, 1.0]).unwrap().name, "b");
+        assert!(w.region_at([11.0, 1.0]).is_none());
+    }
+
+    #[test]
+    fn clearance_is_signed_distance_to_the_nearest_solid() {
+        let w = world();
+        // Above the concrete wall's upper face (y = 0.1), far from the rest.
+        assert!((w.clearance([5.0, 1.1]) - 1.0).abs() < 1e-12);
+        // Nearest is the pillar: |(3, 2.5) - (3, 4)| - 0.5 = 1.0 vs 2.4 to the wall.
+        assert!((w.clearance([3.0, 2.5]) - 1.0).abs() < 1e-12);
+        // Glass counts: 0.475 m from its west face at x = 9.975.
+        assert!((w.clearance([9.5, 3.0]) - 0.475).abs() < 1e-12);
+        // Inside the concrete wall and inside the pillar.
+        assert!((w.clearance([5.0, 0.0]) + 0.1).abs() < 1e-12);
+        assert!((w.clearance([3.0, 4.0]) + 0.5).abs() < 1e-12);
+        assert!(w.is_free([5.0, 1.1], 0.9));
+        assert!(!w.is_free([5.0, 1.1], 1.0));
+        assert!(!w.is_free([5.0, 0.05], 0.0));
+        assert!(w.clearance([f64::NAN, 1.0]).is_nan());
+        assert!(!w.is_free([f64::NAN, 1.0], 0.0));
+    }
 }

@@ -1,0 +1,764 @@
+//! The TOML world format, its loader and its validation.
+//!
+//! ```toml
+//! name = "campus"
+//! ceiling_height = 3.0
+//! [materials.glass]
+//! laser = "glass"               # or "opaque"
+//! reflect_within_deg = 5.0      # glass only: reflects within this angle of normal incidence
+//! [[walls]]                     # a polyline: each consecutive point pair becomes one Wall
+//! points = [[0.0, 0.0], [60.0, 0.0]]
+//! thickness = 0.3
+//! height = 3.0                  # optional, default ceiling_height
+//! material = "concrete"
+//! [[pillars]]
+//! center = [4.0, 10.6]
+//! radius = 0.25
+//! material = "concrete"
+//! [[regions]]
+//! name = "atrium"
+//! kind = "atrium"               # corridor | glass_corridor | atrium | room
+//! polygon = [[30.0, 2.85], [60.0, 2.85], [60.0, 40.0], [30.0, 40.0]]
+//! ```
+//!
+//! Every table denies unknown keys, so a misspelt key is an error naming it. Errors name the
+//! file, the field path (`walls[3].thickness`, indices from 0 in file order) and the line.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::error::WorldError;
+use crate::geometry::{polygon_area, polygon_self_intersection};
+use crate::world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World};
+
+/// Shorter than this, a wall segment or polygon edge is treated as zero length (metres).
+const MIN_LENGTH: f64 = 1e-9;
+/// Smaller than this, a region polygon is treated as having no area (m²).
+const MIN_AREA: f64 = 1e-9;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWorld {
+    name: Spanned<String>,
+    ceiling_height: Spanned<f64>,
+    #[serde(default)]
+    materials: BTreeMap<String, Spanned<toml::Value>>,
+    #[serde(default)]
+    walls: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    pillars: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    regions: Vec<Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "snake_case")]
+enum LaserKind {
+    Opaque,
+    Glass,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    laser: LaserKind,
+    reflect_within_deg: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWall {
+    points: Vec<[f64; 2]>,
+    thickness: f64,
+    height: Option<f64>,
+    material: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPillar {
+    center: [f64; 2],
+    radius: f64,
+    height: Option<f64>,
+    material: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRegion {
+    name: String,
+    kind: RegionKind,
+    polygon: Vec<[f64; 2]>,
+}
+
+/// Where errors point: the file and, when the text is known, the line of the offending item.
+struct Ctx<'a> {
+    file: &'a Path,
+    text: Option<&'a str>,
+}
+
+impl Ctx<'_> {
+    fn err(
+        &self,
+        field: impl Into<String>,
+        at: Option<usize>,
+        msg: impl Into<String>,
+    ) -> WorldError {
+        let field = field.into();
+        let mut msg = msg.into();
+        if let (Some(text), Some(offset)) = (self.text, at) {
+            let line = 1 + text.as_bytes()[..offset.min(text.len())]
+                .iter()
+                .filter(|&&c| c == b'\n')
+                .count();
+            // Array and table entries carry the span of their whole table, which starts at its
+            // header line; say so rather than suggest the key is on that line.
+            let entry = field.contains(['.', '[']);
+            let which = if entry { "entry at line" } else { "line" };
+            msg.push_str(&format!(" ({which} {line})"));
+        }
+        WorldError::Field {
+            file: self.file.to_path_buf(),
+            field,
+            msg,
+        }
+    }
+
+    fn finite(&self, field: &str, at: Option<usize>, v: f64) -> Result<f64, WorldError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(field, at, format!("must be a finite number, got {v}")))
+        }
+    }
+
+    fn positive(&self, field: &str, at: Option<usize>, v: f64) -> Result<f64, WorldError> {
+        let v = self.finite(field, at, v)?;
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(field, at, format!("must be > 0, got {v}")))
+        }
+    }
+
+    fn point(&self, field: &str, at: Option<usize>, p: [f64; 2]) -> Result<[f64; 2], WorldError> {
+        if p[0].is_finite() && p[1].is_finite() {
+            Ok(p)
+        } else {
+            Err(self.err(
+                field,
+                at,
+                format!(
+                    "coordinates must be finite numbers, got [{}, {}]",
+                    p[0], p[1]
+                ),
+            ))
+        }
+    }
+
+    fn material_ref(
+        &self,
+        field: &str,
+        at: Option<usize>,
+        name: &str,
+        materials: &[Material],
+    ) -> Result<(), WorldError> {
+        if materials.iter().any(|m| m.name == name) {
+            return Ok(());
+        }
+        let known = if materials.is_empty() {
+            "no [materials] are defined".to_string()
+        } else {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            format!("known: {}", names.join(", "))
+        };
+        Err(self.err(field, at, format!("unknown material \"{name}\" ({known})")))
+    }
+
+    /// Deserialises one array-of-tables entry, prefixing serde's message with its path.
+    fn typed<T: for<'de> Deserialize<'de>>(
+        &self,
+        path: &str,
+        item: &Spanned<toml::Value>,
+    ) -> Result<T, WorldError> {
+        item.get_ref()
+            .clone()
+            .try_into::<T>()
+            .map_err(|e| self.err(path, Some(item.span().start), e.message().to_string()))
+    }
+
+    fn polygon(
+        &self,
+        path: &str,
+        at: Option<usize>,
+        mut polygon: Vec<[f64; 2]>,
+    ) -> Result<Vec<[f64; 2]>, WorldError> {
+        for (k, &p) in polygon.iter().enumerate() {
+            self.point(&format!("{path}[{k}]"), at, p)?;
+        }
+        // A closed ring (first == last) is a common way to write a polygon; store it open.
+        if polygon.len() > 3 && polygon.first() == polygon.last() {
+            polygon.pop();
+        }
+        if polygon.len() < 3 {
+            return Err(self.err(
+                path,
+                at,
+                format!("a polygon needs at least 3 points, got {}", polygon.len()),
+            ));
+        }
+        let area = polygon_area(&polygon);
+        if area.abs() < MIN_AREA {
+            return Err(self.err(path, at, format!("polygon has zero area (got {area} m²)")));
+        }
+        if let Some((i, j)) = polygon_self_intersection(&polygon) {
+            return Err(self.err(
+                path,
+                at,
+                format!("polygon is not simple: edges {i} and {j} intersect"),
+            ));
+        }
+        Ok(polygon)
+    }
+}
+
+impl World {
+    /// Loads and validates a world file.
+    pub fn load(path: &Path) -> Result<World, WorldError> {
+        let text = std::fs::read_to_string(path).map_err(|err| WorldError::Io {
+            file: path.to_path_buf(),
+            err,
+        })?;
+        World::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates a world from TOML text; `file` is used in error messages only.
+    pub fn from_toml_str(text: &str, file: &Path) -> Result<World, WorldError> {
+        let raw: RawWorld = toml::from_str(text).map_err(|e| WorldError::Parse {
+            file: file.to_path_buf(),
+            msg: e.to_string().trim_end().to_string(),
+        })?;
+        let ctx = Ctx {
+            file,
+            text: Some(text),
+        };
+
+        let name = raw.name.get_ref().trim().to_string();
+        if name.is_empty() {
+            return Err(ctx.err("name", Some(raw.name.span().start), "must not be empty"));
+        }
+        let ceiling_height = ctx.positive(
+            "ceiling_height",
+            Some(raw.ceiling_height.span().start),
+            *raw.ceiling_height.get_ref(),
+        )?;
+
+        let mut materials = Vec::with_capacity(raw.materials.len());
+        for (mname, item) in &raw.materials {
+            let path = format!("materials.{mname}");
+            let at = Some(item.span().start);
+            let m: RawMaterial = ctx.typed(&path, item)?;
+            let field = format!("{path}.reflect_within_deg");
+            let laser = match (m.laser, m.reflect_within_deg) {
+                (LaserKind::Opaque, None) => LaserBehaviour::Opaque,
+                (LaserKind::Opaque, Some(_)) => {
+                    return Err(ctx.err(field, at, "only valid with laser = \"glass\""));
+                }
+                (LaserKind::Glass, None) => {
+                    return Err(ctx.err(field, at, "required when laser = \"glass\""));
+                }
+                (LaserKind::Glass, Some(deg)) => {
+                    let deg = ctx.finite(&field, at, deg)?;
+                    if !(0.0..=90.0).contains(&deg) {
+                        return Err(ctx.err(
+                            field,
+                            at,
+                            format!("must be within [0, 90] degrees, got {deg}"),
+                        ));
+                    }
+                    LaserBehaviour::Glass {
+                        reflect_within_deg: deg,
+                    }
+                }
+            };
+            materials.push(Material {
+                name: mname.clone(),
+                laser,
+            });
+        }
+
+        if raw.walls.is_empty() {
+            return Err(ctx.err("walls", None, "at least one [[walls]] entry is required"));
+        }
+        let mut walls = Vec::new();
+        for (i, item) in raw.walls.iter().enumerate() {
+            let path = format!("walls[{i}]");
+            let at = Some(item.span().start);
+            let w: RawWall = ctx.typed(&path, item)?;
+            if w.points.len() < 2 {
+                return Err(ctx.err(
+                    format!("{path}.points"),
+                    at,
+                    format!(
+                        "a wall polyline needs at least 2 points, got {}",
+                        w.points.len()
+                    ),
+                ));
+            }
+            for (k, &p) in w.points.iter().enumerate() {
+                ctx.point(&format!("{path}.points[{k}]"), at, p)?;
+            }
+            let thickness = ctx.positive(&format!("{path}.thickness"), at, w.thickness)?;
+            let height = match w.height {
+                Some(h) => ctx.positive(&format!("{path}.height"), at, h)?,
+                None => ceiling_height,
+            };
+            ctx.material_ref(&format!("{path}.material"), at, &w.material, &materials)?;
+            for (k, pair) in w.points.windows(2).enumerate() {
+                let (a, b) = (pair[0], pair[1]);
+                if (b[0] - a[0]).hypot(b[1] - a[1]) < MIN_LENGTH {
+                    return Err(ctx.err(
+                        format!("{path}.points[{}]", k + 1),
+                        at,
+                        format!(
+                            "zero-length wall segment: same point as points[{k}] ([{}, {}])",
+                            a[0], a[1]
+                        ),
+                    ));
+                }
+                walls.push(Wall {
+                    a,
+                    b,
+                    thickness,
+                    height,
+                    material: w.material.clone(),
+                });
+            }
+        }
+
+        let mut pillars = Vec::with_capacity(raw.pillars.len());
+        for (i, item) in raw.pillars.iter().enumerate() {
+            let path = format!("pillars[{i}]");
+            let at = Some(item.span().start);
+            let p: RawPillar = ctx.typed(&path, item)?;
+            let center = ctx.point(&format!("{path}.center"), at, p.center)?;
+            let radius = ctx.positive(&format!("{path}.radius"), at, p.radius)?;
+            let height = match p.height {
+                Some(h) => ctx.positive(&format!("{path}.height"), at, h)?,
+                None => ceiling_height,
+            };
+            ctx.material_ref(&format!("{path}.material"), at, &p.material, &materials)?;
+            pillars.push(Pillar {
+                center,
+                radius,
+                height,
+                material: p.material,
+            });
+        }
+
+        let mut regions: Vec<Region> = Vec::with_capacity(raw.regions.len());
+        for (i, item) in raw.regions.iter().enumerate() {
+            let path = format!("regions[{i}]");
+            let at = Some(item.span().start);
+            let r: RawRegion = ctx.typed(&path, item)?;
+            let rname = r.name.trim().to_string();
+            if rname.is_empty() {
+                return Err(ctx.err(format!("{path}.name"), at, "must not be empty"));
+            }
+            if let Some(j) = regions.iter().position(|q| q.name == rname) {
+                return Err(ctx.err(
+                    format!("{path}.name"),
+                    at,
+                    format!("duplicate region name \"{rname}\" (also regions[{j}])"),
+                ));
+            }
+            let polygon = ctx.polygon(&format!("{path}.polygon"), at, r.polygon)?;
+            regions.push(Region {
+                name: rname,
+                kind: r.kind,
+                polygon,
+            });
+        }
+
+        Ok(World {
+            name,
+            ceiling_height,
+            materials,
+            walls,
+            pillars,
+            regions,
+        })
+    }
+
+    /// Checks a world built in code (generators, tests) by the same rules as the loader.
+    /// Field paths index the expanded `walls` (one per segment). `origin` names the world in
+    /// messages, e.g. the generator that made it.
+    pub fn validate(&self, origin: &Path) -> Result<(), WorldError> {
+        let ctx = Ctx {
+            file: origin,
+            text: None,
+        };
+        if self.name.trim().is_empty() {
+            return Err(ctx.err("name", None, "must not be empty"));
+        }
+        ctx.positive("ceiling_height", None, self.ceiling_height)?;
+        for (i, m) in self.materials.iter().enumerate() {
+            if self.materials[..i].iter().any(|q| q.name == m.name) {
+                return Err(ctx.err(
+                    format!("materials[{i}].name"),
+                    None,
+                    format!("duplicate material name \"{}\"", m.name),
+                ));
+            }
+            if let LaserBehaviour::Glass { reflect_within_deg } = m.laser {
+                let field = format!("materials.{}.reflect_within_deg", m.name);
+                let deg = ctx.finite(&field, None, reflect_within_deg)?;
+                if !(0.0..=90.0).contains(&deg) {
+                    return Err(ctx.err(
+                        field,
+                        None,
+                        format!("must be within [0, 90] degrees, got {deg}"),
+                    ));
+                }
+            }
+        }
+        if self.walls.is_empty() {
+            return Err(ctx.err("walls", None, "at least one wall is required"));
+        }
+        for (i, w) in self.walls.iter().enumerate() {
+            let path = format!("walls[{i}]");
+            ctx.point(&format!("{path}.a"), None, w.a)?;
+            ctx.point(&format!("{path}.b"), None, w.b)?;
+            if (w.b[0] - w.a[0]).hypot(w.b[1] - w.a[1]) < MIN_LENGTH {
+                return Err(ctx.err(path, None, "zero-length wall: a == b"));
+            }
+            ctx.positive(&format!("{path}.thickness"), None, w.thickness)?;
+            ctx.positive(&format!("{path}.height"), None, w.height)?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                None,
+                &w.material,
+                &self.materials,
+            )?;
+        }
+        for (i, p) in self.pillars.iter().enumerate() {
+            let path = format!("pillars[{i}]");
+            ctx.point(&format!("{path}.center"), None, p.center)?;
+            ctx.positive(&format!("{path}.radius"), None, p.radius)?;
+            ctx.positive(&format!("{path}.height"), None, p.height)?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                None,
+                &p.material,
+                &self.materials,
+            )?;
+        }
+        for (i, r) in self.regions.iter().enumerate() {
+            let path = format!("regions[{i}]");
+            if r.name.trim().is_empty() {
+                return Err(ctx.err(format!("{path}.name"), None, "must not be empty"));
+            }
+            if let Some(j) = self.regions[..i].iter().position(|q| q.name == r.name) {
+                return Err(ctx.err(
+                    format!("{path}.name"),
+                    None,
+                    format!("duplicate region name \"{}\" (also regions[{j}])", r.name),
+                ));
+            }
+            let polygon = ctx.polygon(&format!("{path}.polygon"), None, r.polygon.clone())?;
+            if polygon.len() != r.polygon.len() {
+                return Err(ctx.err(
+                    format!("{path}.polygon"),
+                    None,
+                    "must not repeat its first point at the end",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small valid world; each test breaks one tagged line.
+    const BASE: &str = r#"name = "t"
+ceiling_height = 3.0 # ceiling
+[materials.concrete]
+laser = "opaque"
+[materials.drywall]
+laser = "opaque"
+[materials.glass]
+laser = "glass"
+reflect_within_deg = 5.0 # deg
+[[walls]]
+points = [[0.0, 0.0], [10.0, 0.0], [10.0, 8.0]] # w0 points
+thickness = 0.3
+material = "concrete"
+[[walls]]
+points = [[0.0, 8.0], [10.0, 8.0]]
+thickness = 0.1
+height = 2.5 # w1 height
+material = "drywall"
+[[walls]]
+points = [[0.0, 0.0], [0.0, 8.0]]
+thickness = 0.05
+material = "glass" # w2 material
+[[walls]]
+points = [[5.0, 0.0], [5.0, 3.0]]
+thickness = 0.1 # w3 thickness
+material = "drywall"
+[[pillars]]
+center = [7.0, 5.0]
+radius = 0.3 # p0 radius
+material = "concrete"
+[[regions]]
+name = "west"
+kind = "room"
+polygon = [[0.0, 0.0], [5.0, 0.0], [5.0, 8.0], [0.0, 8.0], [0.0, 0.0]] # r0 polygon
+[[regions]]
+name = "east" # r1 name
+kind = "corridor" # r1 kind
+polygon = [[5.0, 0.0], [10.0, 0.0], [10.0, 8.0], [5.0, 8.0]]
+"#;
+
+    fn load(text: &str) -> Result<World, WorldError> {
+        World::from_toml_str(text, Path::new("test.toml"))
+    }
+
+    /// The error message after replacing the tagged line containing `tag` by `line`.
+    fn error_with(tag: &str, line: &str) -> String {
+        let hits = BASE.lines().filter(|l| l.contains(tag)).count();
+        assert_eq!(hits, 1, "tag {tag:?} must match one line");
+        let text: String = BASE
+            .lines()
+            .map(|l| if l.contains(tag) { line } else { l })
+            .collect::<Vec<_>>()
+            .join("\n");
+        match load(&text) {
+            Ok(_) => panic!("expected an error after {tag:?} -> {line:?}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn base_world_loads_and_expands_polylines() {
+        let w = load(BASE).unwrap();
+        assert_eq!(w.name, "t");
+        assert_eq!(w.walls.len(), 5, "3-point polyline gives 2 walls");
+        assert_eq!(w.walls[0].a, [0.0, 0.0]);
+        assert_eq!(w.walls[0].b, [10.0, 0.0]);
+        assert_eq!(w.walls[1].a, [10.0, 0.0]);
+        assert_eq!(w.walls[1].b, [10.0, 8.0]);
+        assert_eq!(w.walls[0].height, 3.0, "height defaults to the ceiling");
+        assert_eq!(w.walls[2].height, 2.5);
+        assert_eq!(w.pillars[0].height, 3.0);
+        let names: Vec<&str> = w.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["concrete", "drywall", "glass"]);
+        assert_eq!(
+            w.material("glass").unwrap().laser,
+            LaserBehaviour::Glass {
+                reflect_within_deg: 5.0
+            }
+        );
+        assert_eq!(w.regions[0].polygon.len(), 4, "closing point dropped");
+        assert_eq!(w.regions[1].kind, RegionKind::Corridor);
+        w.validate(Path::new("test.toml")).unwrap();
+    }
+
+    #[test]
+    fn numbers_out_of_range() {
+        assert_eq!(
+            error_with("# w3 thickness", "thickness = -0.1"),
+            "test.toml: walls[3].thickness: must be > 0, got -0.1 (entry at line 23)"
+        );
+        assert_eq!(
+            error_with("# w3 thickness", "thickness = nan"),
+            "test.toml: walls[3].thickness: must be a finite number, got NaN (entry at line 23)"
+        );
+        assert_eq!(
+            error_with("# w1 height", "height = 0"),
+            "test.toml: walls[1].height: must be > 0, got 0 (entry at line 14)"
+        );
+        assert_eq!(
+            error_with("# w1 height", "height = -inf"),
+            "test.toml: walls[1].height: must be a finite number, got -inf (entry at line 14)"
+        );
+        assert_eq!(
+            error_with("# p0 radius", "radius = 0.0"),
+            "test.toml: pillars[0].radius: must be > 0, got 0 (entry at line 27)"
+        );
+        assert_eq!(
+            error_with("# ceiling", "ceiling_height = 0.0"),
+            "test.toml: ceiling_height: must be > 0, got 0 (line 2)"
+        );
+        assert_eq!(
+            error_with("# ceiling", "ceiling_height = nan"),
+            "test.toml: ceiling_height: must be a finite number, got NaN (line 2)"
+        );
+        assert_eq!(
+            error_with("# w0 points", "points = [[0.0, 0.0], [inf, 0.0]]"),
+            "test.toml: walls[0].points[1]: coordinates must be finite numbers, got [inf, 0] \
+             (entry at line 10)"
+        );
+        assert_eq!(
+            error_with("# deg", "reflect_within_deg = 95.0"),
+            "test.toml: materials.glass.reflect_within_deg: must be within [0, 90] degrees, \
+             got 95 (entry at line 7)"
+        );
+    }
+
+    #[test]
+    fn wall_geometry_errors() {
+        assert_eq!(
+            error_with(
+                "# w0 points",
+                "points = [[0.0, 0.0], [10.0, 0.0], [10.0, 0.0]]"
+            ),
+            "test.toml: walls[0].points[2]: zero-length wall segment: same point as points[1] \
+             ([10, 0]) (entry at line 10)"
+        );
+        assert_eq!(
+            error_with("# w0 points", "points = [[0.0, 0.0]]"),
+            "test.toml: walls[0].points: a wall polyline needs at least 2 points, got 1 \
+             (entry at line 10)"
+        );
+        let no_walls: String = BASE.split("[[walls]]").next().unwrap().to_string();
+        assert_eq!(
+            load(&no_walls).unwrap_err().to_string(),
+            "test.toml: walls: at least one [[walls]] entry is required"
+        );
+    }
+
+    #[test]
+    fn material_errors() {
+        assert_eq!(
+            error_with("# w2 material", "material = \"brick\""),
+            "test.toml: walls[2].material: unknown material \"brick\" \
+             (known: concrete, drywall, glass) (entry at line 19)"
+        );
+        assert_eq!(
+            error_with("# deg", ""),
+            "test.toml: materials.glass.reflect_within_deg: required when laser = \"glass\" \
+             (entry at line 7)"
+        );
+        let e = load(&BASE.replace(
+            "[materials.drywall]\nlaser = \"opaque\"",
+            "[materials.drywall]\nlaser = \"opaque\"\nreflect_within_deg = 3.0",
+        ))
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "test.toml: materials.drywall.reflect_within_deg: only valid with laser = \"glass\" \
+             (entry at line 5)"
+        );
+        let e = load(&BASE.replace("laser = \"glass\"", "laser = \"mirror\"")).unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.starts_with("test.toml: materials.glass: unknown variant `mirror`"),
+            "{e}"
+        );
+        assert!(e.contains("`opaque`") && e.contains("`glass`"), "{e}");
+    }
+
+    #[test]
+    fn region_errors() {
+        assert_eq!(
+            error_with("# r0 polygon", "polygon = [[0.0, 0.0], [5.0, 0.0]]"),
+            "test.toml: regions[0].polygon: a polygon needs at least 3 points, got 2 (entry at line 31)"
+        );
+        assert_eq!(
+            error_with(
+                "# r0 polygon",
+                "polygon = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]"
+            ),
+            "test.toml: regions[0].polygon: polygon has zero area (got 0 m²) (entry at line 31)"
+        );
+        assert_eq!(
+            error_with(
+                "# r0 polygon",
+                "polygon = [[0.0, 0.0], [4.0, 2.0], [4.0, 0.0], [0.0, 3.0]]"
+            ),
+            "test.toml: regions[0].polygon: polygon is not simple: edges 0 and 2 intersect \
+             (entry at line 31)"
+        );
+        assert_eq!(
+            error_with(
+                "# r0 polygon",
+                "polygon = [[0.0, 0.0], [5.0, nan], [5.0, 8.0]]"
+            ),
+            "test.toml: regions[0].polygon[1]: coordinates must be finite numbers, got [5, NaN] \
+             (entry at line 31)"
+        );
+        assert_eq!(
+            error_with("# r1 name", "name = \"west\""),
+            "test.toml: regions[1].name: duplicate region name \"west\" (also regions[0]) \
+             (entry at line 35)"
+        );
+        let e = error_with("# r1 kind", "kind = \"lobby\"");
+        assert!(
+            e.starts_with("test.toml: regions[1]: unknown variant `lobby`"),
+            "{e}"
+        );
+        assert!(
+            e.contains("`glass_corridor`") && e.ends_with("(entry at line 35)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn misspelt_and_mistyped_keys_are_named() {
+        let e = error_with("# w3 thickness", "thicknes = 0.1");
+        assert!(
+            e.starts_with("test.toml: walls[3]: unknown field `thicknes`"),
+            "{e}"
+        );
+        let e = error_with("# ceiling", "ceilng_height = 3.0");
+        assert!(e.starts_with("test.toml: malformed TOML:"), "{e}");
+        assert!(e.contains("ceilng_height"), "{e}");
+        let e = error_with("# w3 thickness", "thickness = \"thick\"");
+        assert!(
+            e.starts_with("test.toml: walls[3]: invalid type: string \"thick\""),
+            "{e}"
+        );
+        let e = error_with("# ceiling", "ceiling_height = = 3");
+        assert!(
+            e.starts_with("test.toml: malformed TOML:") && e.contains("line 2"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn load_reports_missing_file() {
+        let e = World::load(Path::new("/nonexistent/dir/w.toml")).unwrap_err();
+        assert!(matches!(e, WorldError::Io { .. }));
+        assert!(e
+            .to_string()
+            .starts_with("/nonexistent/dir/w.toml: cannot read file"));
+    }
+
+    #[test]
+    fn validate_checks_worlds_built_in_code() {
+        let mut w = load(BASE).unwrap();
+        w.walls[4].thickness = f64::NAN;
+        assert_eq!(
+            w.validate(Path::new("<gen>")).unwrap_err().to_string(),
+            "<gen>: walls[4].thickness: must be a finite number, got NaN"
+        );
+        let mut w = load(BASE).unwrap();
+        w.pillars[0].material = "wood".into();
+        assert_eq!(
+            w.validate(Path::new("<gen>")).unwrap_err().to_string(),
+            "<gen>: pillars[0].material: unknown material \"wood\" \
+             (known: concrete, drywall, glass)"
+        );
+        let mut w = load(BASE).unwrap();
+        w.walls[0].b = w.walls[0].a;
+        assert!(w.validate(Path::new("<gen>")).is_err());
+    }
+}
