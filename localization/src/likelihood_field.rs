@@ -1,0 +1,372 @@
+//! The likelihood-field laser model (Thrun et al., *Probabilistic Robotics*, §6.4, Table 6.3)
+//! over an exact Euclidean distance transform of the occupancy grid (Felzenszwalb and
+//! Huttenlocher, "Distance Transforms of Sampled Functions", 2012: the lower envelope of
+//! parabolas, one 1-D pass per axis).
+
+use crate::error::LocalizationError;
+use atrium_worlds::{Cell, OccupancyGrid};
+
+/// Squared distance standing in for "no occupied cell on this line". Finite so that the
+/// parabola intersections of the 1-D transform never compute ∞ − ∞.
+const FAR: f64 = 1e20;
+
+/// Parameters of the likelihood-field model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LikelihoodFieldParams {
+    pub z_hit: f64,
+    pub z_rand: f64,
+    /// Standard deviation of the hit Gaussian, metres.
+    pub sigma_hit: f64,
+    /// Distances are capped here (metres): beyond it the map says nothing more.
+    pub max_dist: f64,
+    /// The laser's maximum range (the z_rand density is 1/range_max).
+    pub range_max: f64,
+}
+
+impl LikelihoodFieldParams {
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite and > 0, got {v}"))
+            }
+        };
+        pos("sigma_hit", self.sigma_hit)?;
+        pos("max_dist", self.max_dist)?;
+        pos("range_max", self.range_max)?;
+        pos("z_rand", self.z_rand)?;
+        if !(self.z_hit.is_finite() && self.z_hit >= 0.0) {
+            return Err(format!("z_hit must be finite and >= 0, got {}", self.z_hit));
+        }
+        Ok(())
+    }
+}
+
+/// Checks the fields of an occupancy grid a localizer is given.
+pub fn validate_grid(grid: &OccupancyGrid) -> Result<(), LocalizationError> {
+    if !(grid.resolution.is_finite() && grid.resolution > 0.0) {
+        return Err(LocalizationError::grid(
+            "resolution",
+            format!("must be finite and > 0, got {}", grid.resolution),
+        ));
+    }
+    if !(grid.origin[0].is_finite() && grid.origin[1].is_finite()) {
+        return Err(LocalizationError::grid(
+            "origin",
+            format!("must be finite, got {:?}", grid.origin),
+        ));
+    }
+    if grid.width == 0 || grid.height == 0 {
+        return Err(LocalizationError::grid(
+            "width/height",
+            format!("grid is empty ({} × {})", grid.width, grid.height),
+        ));
+    }
+    if grid.width.checked_mul(grid.height) != Some(grid.cells.len()) {
+        return Err(LocalizationError::grid(
+            "cells",
+            format!(
+                "has {} cells, width × height = {} × {}",
+                grid.cells.len(),
+                grid.width,
+                grid.height
+            ),
+        ));
+    }
+    if grid.width.max(grid.height) > u32::MAX as usize / 2 {
+        return Err(LocalizationError::grid("width/height", "grid too large"));
+    }
+    Ok(())
+}
+
+/// 1-D squared distance transform of `f` into `d` (Felzenszwalb–Huttenlocher, Algorithm 1).
+/// `v` and `z` are scratch buffers of at least `f.len()` and `f.len() + 1` elements.
+fn edt_1d(f: &[f64], d: &mut [f64], v: &mut [usize], z: &mut [f64]) {
+    let n = f.len();
+    let mut k = 0usize;
+    v[0] = 0;
+    z[0] = f64::NEG_INFINITY;
+    z[1] = f64::INFINITY;
+    for q in 1..n {
+        let qf = q as f64;
+        loop {
+            let p = v[k];
+            let pf = p as f64;
+            let s = ((f[q] + qf * qf) - (f[p] + pf * pf)) / (2.0 * qf - 2.0 * pf);
+            if s <= z[k] && k > 0 {
+                k -= 1;
+            } else {
+                k += 1;
+                v[k] = q;
+                z[k] = s;
+                z[k + 1] = f64::INFINITY;
+                break;
+            }
+        }
+    }
+    k = 0;
+    for (q, dq) in d.iter_mut().enumerate().take(n) {
+        let qf = q as f64;
+        while z[k + 1] < qf {
+            k += 1;
+        }
+        let p = v[k] as f64;
+        *dq = (qf - p) * (qf - p) + f[v[k]];
+    }
+}
+
+/// Exact Euclidean distance (metres, between cell centres) from every cell to the nearest
+/// `Occupied` cell, capped at `max_dist`, row-major like the grid.
+pub fn distance_transform(
+    grid: &OccupancyGrid,
+    max_dist: f64,
+) -> Result<Vec<f64>, LocalizationError> {
+    validate_grid(grid)?;
+    let (w, h) = (grid.width, grid.height);
+    let mut sq: Vec<f64> = grid
+        .cells
+        .iter()
+        .map(|c| if *c == Cell::Occupied { 0.0 } else { FAR })
+        .collect();
+    let n = w.max(h);
+    let mut f = vec![0.0; n];
+    let mut d = vec![0.0; n];
+    let mut v = vec![0usize; n];
+    let mut z = vec![0.0; n + 1];
+    // Columns (along y) first, then rows (along x): the 2-D transform is separable.
+    for i in 0..w {
+        for j in 0..h {
+            f[j] = sq[j * w + i];
+        }
+        edt_1d(&f[..h], &mut d[..h], &mut v, &mut z);
+        for j in 0..h {
+            sq[j * w + i] = d[j];
+        }
+    }
+    for j in 0..h {
+        let row = &mut sq[j * w..(j + 1) * w];
+        f[..w].copy_from_slice(row);
+        edt_1d(&f[..w], row, &mut v, &mut z);
+    }
+    let res = grid.resolution;
+    for s in sq.iter_mut() {
+        *s = (s.sqrt() * res).min(max_dist);
+    }
+    Ok(sq)
+}
+
+/// Per-cell log-likelihood of a beam endpoint: log(z_hit · N(d; 0, σ_hit) + z_rand/range_max),
+/// precomputed so a beam costs one table lookup.
+///
+/// Beams at or beyond range_max are skipped by the caller: in this model a max-range reading
+/// has no endpoint to look up and carries no information (Thrun §6.4 drops them too).
+#[derive(Debug, Clone)]
+pub struct LikelihoodField {
+    origin: [f64; 2],
+    resolution: f64,
+    inv_resolution: f64,
+    width: usize,
+    height: usize,
+    dist: Vec<f64>,
+    log_p: Vec<f32>,
+    params: LikelihoodFieldParams,
+    log_floor: f64,
+}
+
+impl LikelihoodField {
+    pub fn new(
+        grid: &OccupancyGrid,
+        params: LikelihoodFieldParams,
+    ) -> Result<Self, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        let dist = distance_transform(grid, params.max_dist)?;
+        let mut lf = Self {
+            origin: grid.origin,
+            resolution: grid.resolution,
+            inv_resolution: 1.0 / grid.resolution,
+            width: grid.width,
+            height: grid.height,
+            log_p: vec![0.0; dist.len()],
+            dist,
+            params,
+            log_floor: 0.0,
+        };
+        lf.fill_table();
+        Ok(lf)
+    }
+
+    fn fill_table(&mut self) {
+        let p = &self.params;
+        let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * p.sigma_hit);
+        let inv2s2 = 1.0 / (2.0 * p.sigma_hit * p.sigma_hit);
+        let rand = p.z_rand / p.range_max;
+        for (lp, d) in self.log_p.iter_mut().zip(&self.dist) {
+            *lp = (p.z_hit * norm * (-d * d * inv2s2).exp() + rand).ln() as f32;
+        }
+        self.log_floor = rand.ln();
+    }
+
+    /// Rebuilds the table in place (no allocation) when the laser's range_max changes.
+    pub fn set_range_max(&mut self, range_max: f64) {
+        if range_max != self.params.range_max && range_max.is_finite() && range_max > 0.0 {
+            self.params.range_max = range_max;
+            self.fill_table();
+        }
+    }
+
+    pub fn params(&self) -> &LikelihoodFieldParams {
+        &self.params
+    }
+
+    /// The z_rand floor used outside the grid.
+    pub fn log_floor(&self) -> f64 {
+        self.log_floor
+    }
+
+    pub fn resolution(&self) -> f64 {
+        self.resolution
+    }
+
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Cell index of a point, `None` outside the grid (or for NaN).
+    #[inline]
+    pub fn cell_index(&self, x: f64, y: f64) -> Option<usize> {
+        let fx = (x - self.origin[0]) * self.inv_resolution;
+        let fy = (y - self.origin[1]) * self.inv_resolution;
+        // Written so that NaN fails the test; truncation is floor for non-negative values.
+        if fx >= 0.0 && fy >= 0.0 && fx < self.width as f64 && fy < self.height as f64 {
+            Some(fy as usize * self.width + fx as usize)
+        } else {
+            None
+        }
+    }
+
+    /// Distance to the nearest occupied cell (capped), `None` outside the grid.
+    pub fn distance(&self, x: f64, y: f64) -> Option<f64> {
+        self.cell_index(x, y).map(|k| self.dist[k])
+    }
+
+    /// Log-likelihood of a beam endpoint at (x, y).
+    #[inline]
+    pub fn log_likelihood(&self, x: f64, y: f64) -> f64 {
+        match self.cell_index(x, y) {
+            Some(k) => self.log_p[k] as f64,
+            None => self.log_floor,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(w: usize, h: usize, occupied: &[(usize, usize)]) -> OccupancyGrid {
+        let mut cells = vec![Cell::Free; w * h];
+        for &(i, j) in occupied {
+            cells[j * w + i] = Cell::Occupied;
+        }
+        OccupancyGrid {
+            origin: [-1.0, 2.0],
+            resolution: 0.5,
+            width: w,
+            height: h,
+            cells,
+        }
+    }
+
+    #[test]
+    fn distances_match_hand_computed_values() {
+        // 5 × 4 grid, occupied at (0, 0) and (4, 3), 0.5 m cells.
+        let g = grid(5, 4, &[(0, 0), (4, 3)]);
+        let d = distance_transform(&g, 100.0).unwrap();
+        let at = |i: usize, j: usize| d[j * 5 + i];
+        assert_eq!(at(0, 0), 0.0);
+        assert_eq!(at(4, 3), 0.0);
+        assert!((at(1, 0) - 0.5).abs() < 1e-12);
+        assert!((at(1, 1) - 0.5 * 2f64.sqrt()).abs() < 1e-12);
+        // (2, 1): to (0,0) √5 cells, to (4,3) √8 cells.
+        assert!((at(2, 1) - 0.5 * 5f64.sqrt()).abs() < 1e-12);
+        // (2, 2): √8 vs √5.
+        assert!((at(2, 2) - 0.5 * 5f64.sqrt()).abs() < 1e-12);
+        // (0, 3): 3 cells vs 4 cells.
+        assert!((at(0, 3) - 1.5).abs() < 1e-12);
+        // Capped.
+        let capped = distance_transform(&g, 0.6).unwrap();
+        assert!((capped[3 * 5] - 0.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn transform_equals_brute_force_on_an_irregular_grid() {
+        let occ = [(3, 1), (7, 2), (0, 8), (9, 9), (4, 5), (5, 5), (12, 0)];
+        let g = grid(13, 10, &occ);
+        let d = distance_transform(&g, 1e9).unwrap();
+        for j in 0..10 {
+            for i in 0..13 {
+                let bf = occ
+                    .iter()
+                    .map(|&(a, b)| {
+                        ((a as f64 - i as f64).powi(2) + (b as f64 - j as f64).powi(2)).sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+                    * 0.5;
+                assert!((d[j * 13 + i] - bf).abs() < 1e-9, "({i},{j})");
+            }
+        }
+    }
+
+    #[test]
+    fn no_occupied_cell_gives_the_cap_everywhere() {
+        let g = grid(4, 3, &[]);
+        let d = distance_transform(&g, 2.0).unwrap();
+        assert!(d.iter().all(|&v| v == 2.0));
+    }
+
+    #[test]
+    fn table_holds_the_log_of_the_mixture_and_the_floor_outside() {
+        let g = grid(5, 4, &[(0, 0)]);
+        let p = LikelihoodFieldParams {
+            z_hit: 0.9,
+            z_rand: 0.1,
+            sigma_hit: 0.2,
+            max_dist: 2.0,
+            range_max: 10.0,
+        };
+        let lf = LikelihoodField::new(&g, p).unwrap();
+        // Cell (0,0) covers x ∈ [-1, -0.5), y ∈ [2, 2.5): d = 0.
+        let peak = (0.9 / ((2.0 * std::f64::consts::PI).sqrt() * 0.2) + 0.01f64).ln();
+        assert!((lf.log_likelihood(-0.9, 2.1) - peak).abs() < 1e-6);
+        // Cell (2, 0): d = 1 m.
+        let n1 = 0.9 / ((2.0 * std::f64::consts::PI).sqrt() * 0.2) * (-1.0f64 / (2.0 * 0.04)).exp();
+        assert!((lf.log_likelihood(0.1, 2.1) - (n1 + 0.01).ln()).abs() < 1e-6);
+        // Outside the grid and NaN: the z_rand floor.
+        assert_eq!(lf.log_likelihood(-1.01, 2.1), 0.01f64.ln());
+        assert_eq!(lf.log_likelihood(f64::NAN, 2.1), 0.01f64.ln());
+        assert_eq!(lf.log_likelihood(1.5, 2.1), 0.01f64.ln());
+        assert_eq!(lf.distance(0.1, 2.1), Some(1.0));
+        // A new range_max changes the floor and the table.
+        let mut lf = lf;
+        lf.set_range_max(5.0);
+        assert_eq!(lf.log_floor(), 0.02f64.ln());
+        assert!((lf.log_likelihood(0.1, 2.1) - (n1 + 0.02).ln()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn malformed_grid_is_an_error_naming_the_field() {
+        let mut g = grid(3, 3, &[]);
+        g.cells.pop();
+        let e = distance_transform(&g, 1.0).unwrap_err();
+        assert!(e.to_string().contains("`cells`"), "{e}");
+        let mut g = grid(3, 3, &[]);
+        g.resolution = 0.0;
+        assert!(distance_transform(&g, 1.0)
+            .unwrap_err()
+            .to_string()
+            .contains("`resolution`"));
+    }
+}

@@ -1,0 +1,593 @@
+use super::*;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+const RES: f64 = 0.05;
+
+/// A 12 × 8 m room with no symmetry: the top-right 4 × 3 m corner is solid (an L shape), a
+/// wall hangs from the top at x = 5, a pillar and a box stand inside. Outside is Unknown.
+fn asymmetric_room() -> OccupancyGrid {
+    let origin = [-1.0, -1.0];
+    let (w, h) = (280, 200);
+    let mut cells = vec![Cell::Unknown; w * h];
+    let inside =
+        |x: f64, y: f64, x0: f64, x1: f64, y0: f64, y1: f64| x >= x0 && x < x1 && y >= y0 && y < y1;
+    for j in 0..h {
+        for i in 0..w {
+            let x = origin[0] + (i as f64 + 0.5) * RES;
+            let y = origin[1] + (j as f64 + 0.5) * RES;
+            let c = if inside(x, y, 0.0, 12.0, 0.0, 8.0) {
+                let occupied = inside(x, y, 8.0, 12.0, 5.0, 8.0)
+                    || inside(x, y, 5.0, 5.1, 4.0, 8.0)
+                    || inside(x, y, 3.0, 3.4, 2.0, 2.4)
+                    || inside(x, y, 9.5, 10.5, 1.0, 1.6);
+                if occupied {
+                    Cell::Occupied
+                } else {
+                    Cell::Free
+                }
+            } else if inside(x, y, -0.1, 12.1, -0.1, 8.1) {
+                Cell::Occupied
+            } else {
+                Cell::Unknown
+            };
+            cells[j * w + i] = c;
+        }
+    }
+    OccupancyGrid {
+        origin,
+        resolution: RES,
+        width: w,
+        height: h,
+        cells,
+    }
+}
+
+fn occupied_at(grid: &OccupancyGrid, x: f64, y: f64) -> bool {
+    let fx = (x - grid.origin[0]) / grid.resolution;
+    let fy = (y - grid.origin[1]) / grid.resolution;
+    if fx < 0.0 || fy < 0.0 || fx >= grid.width as f64 || fy >= grid.height as f64 {
+        return true;
+    }
+    grid.cells[fy as usize * grid.width + fx as usize] == Cell::Occupied
+}
+
+const MOUNT: Pose2 = Pose2::new(0.1, 0.0, 0.0);
+
+/// A SICK-like scan (181 beams over 180°, 8 m) from `pose`, by marching each ray through the
+/// grid in quarter-cell steps, with Gaussian range noise.
+fn simulate_scan(
+    grid: &OccupancyGrid,
+    pose: &Pose2,
+    stamp: f64,
+    rng: &mut ChaCha8Rng,
+) -> LaserScan {
+    let laser = pose.compose(&MOUNT);
+    let range_max = 8.0;
+    let step = grid.resolution / 4.0;
+    let mut ranges = Vec::with_capacity(181);
+    for b in 0..181 {
+        let a = laser.theta - FRAC_PI_2 + b as f64 * PI / 180.0;
+        let (s, c) = a.sin_cos();
+        let mut r = 0.0;
+        let mut hit = false;
+        while r < range_max {
+            if occupied_at(grid, laser.x + r * c, laser.y + r * s) {
+                hit = true;
+                break;
+            }
+            r += step;
+        }
+        let z: f64 = StandardNormal.sample(rng);
+        ranges.push(if hit {
+            (r + 0.01 * z).max(0.0)
+        } else {
+            range_max
+        });
+    }
+    LaserScan {
+        stamp,
+        sensor: "laser".into(),
+        mount: MOUNT,
+        angle_min: -FRAC_PI_2,
+        angle_increment: PI / 180.0,
+        range_min: 0.05,
+        range_max,
+        ranges,
+    }
+}
+
+/// True poses along a route: turn in place towards each waypoint in 0.1 rad steps, then
+/// drive to it in 0.1 m steps.
+fn route(start: Pose2, waypoints: &[[f64; 2]]) -> Vec<Pose2> {
+    let mut poses = vec![start];
+    let mut p = start;
+    for wp in waypoints {
+        let heading = (wp[1] - p.y).atan2(wp[0] - p.x);
+        loop {
+            let d = normalize_angle(heading - p.theta);
+            if d.abs() < 1e-9 {
+                break;
+            }
+            p.theta = normalize_angle(p.theta + d.clamp(-0.1, 0.1));
+            poses.push(p);
+        }
+        loop {
+            let dist = (wp[0] - p.x).hypot(wp[1] - p.y);
+            if dist < 1e-9 {
+                break;
+            }
+            let s = dist.min(0.1);
+            p.x += s * heading.cos();
+            p.y += s * heading.sin();
+            poses.push(p);
+        }
+    }
+    poses
+}
+
+/// Drives `mcl` along `truth`: odometry with 3 % scale error on translation, 2 % on rotation
+/// and a little random noise, a scan at every pose. Returns the position error after each
+/// step.
+fn drive(mcl: &mut Mcl, grid: &OccupancyGrid, truth: &[Pose2], seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut odom = Pose2::new(100.0, -50.0, 1.0);
+    let mut errors = Vec::new();
+    for (k, pair) in truth.windows(2).enumerate() {
+        let rel = pair[0].between(&pair[1]);
+        let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
+        let noisy = Pose2::new(
+            rel.x * 1.03 + 0.002 * g(&mut rng),
+            rel.y * 1.03 + 0.002 * g(&mut rng),
+            rel.theta * 0.98 + 0.002 * g(&mut rng),
+        );
+        let next = odom.compose(&noisy);
+        let stamp = 0.1 * (k + 1) as f64;
+        mcl.predict(&OdometryDelta {
+            stamp,
+            from: odom,
+            to: next,
+        });
+        odom = next;
+        let scan = simulate_scan(grid, &pair[1], stamp, &mut rng);
+        mcl.update(&Reading::Laser(scan));
+        errors.push(mcl.estimate().pose.distance(&pair[1]));
+    }
+    errors
+}
+
+const TOUR: [[f64; 2]; 6] = [
+    [7.0, 1.0],
+    [7.0, 3.5],
+    [2.0, 3.5],
+    [2.0, 6.5],
+    [4.0, 6.5],
+    [4.0, 4.5],
+];
+
+#[test]
+fn simulated_scan_matches_hand_computed_ranges() {
+    let grid = asymmetric_room();
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    // Laser at (1.1, 1.0) facing +x: the straight-ahead beam (index 90) hits the box face at
+    // x = 9.5 → 8.4 m, beyond the 8 m range; the leftmost beam (+90°) hits y = 8 → 7 m; the
+    // rightmost (−90°) hits the wall at y = 0 → 1 m.
+    let scan = simulate_scan(&grid, &Pose2::new(1.0, 1.0, 0.0), 0.0, &mut rng);
+    assert_eq!(scan.ranges[90], 8.0);
+    assert!(
+        (scan.ranges[180] - 7.0).abs() < 0.05,
+        "{}",
+        scan.ranges[180]
+    );
+    assert!((scan.ranges[0] - 1.0).abs() < 0.05, "{}", scan.ranges[0]);
+}
+
+#[test]
+fn tracking_follows_the_robot_to_within_ten_centimetres() {
+    let grid = asymmetric_room();
+    let start = Pose2::new(1.0, 1.0, 0.0);
+    let truth = route(start, &TOUR);
+    assert!(truth.len() > 200);
+    let init = InitialBelief::Tracking {
+        pose: Pose2::new(1.15, 0.9, 0.05),
+        sigma: [0.2, 0.2, 0.1],
+    };
+    let mut mcl = Mcl::new("mcl", MclParams::default(), &grid, init, 7).unwrap();
+    let errors = drive(&mut mcl, &grid, &truth, 11);
+    let last = *errors.last().unwrap();
+    let worst_after_start = errors[20..].iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "tracking: final {last:.3} m, worst after 20 steps {worst_after_start:.3} m, particles {}",
+        mcl.particle_count()
+    );
+    assert!(last < 0.1, "final error {last}");
+    assert!(worst_after_start < 0.2, "worst error {worst_after_start}");
+    let est = mcl.estimate();
+    assert!(est.pose.heading_error(truth.last().unwrap()) < 0.05);
+    // Converged: KLD has shrunk the set to its minimum, and the covariance is small.
+    assert_eq!(mcl.particle_count(), 500);
+    assert!(est.covariance[(0, 0)].sqrt() < 0.1 && est.covariance[(1, 1)].sqrt() < 0.1);
+}
+
+#[test]
+fn global_localization_converges_on_an_asymmetric_map() {
+    let grid = asymmetric_room();
+    let start = Pose2::new(6.0, 2.5, 2.0);
+    let truth = route(
+        start,
+        &[[2.0, 3.0], [2.0, 6.5], [4.0, 6.5], [4.0, 4.5], [7.0, 3.0]],
+    );
+    // Several seeds: one lucky run would prove little about a global search.
+    for seed in 0..8 {
+        let init = InitialBelief::Global { regions: vec![] };
+        let mut mcl = Mcl::new("mcl", MclParams::default(), &grid, init, seed).unwrap();
+        assert_eq!(mcl.particle_count(), 5000);
+        let errors = drive(&mut mcl, &grid, &truth, 100 + seed);
+        let last = *errors.last().unwrap();
+        let converged_at = errors.iter().rposition(|e| *e >= 0.3).map_or(0, |k| k + 1);
+        eprintln!(
+            "global seed {seed}: final {last:.3} m, within 0.3 m from step {converged_at} of {}, particles {}",
+            errors.len(),
+            mcl.particle_count()
+        );
+        assert!(last < 0.3, "seed {seed}: final error {last}");
+        assert!(
+            converged_at < errors.len() / 2,
+            "seed {seed}: converged only at step {converged_at}"
+        );
+        // Converged: KLD has shrunk the set.
+        assert!(
+            mcl.particle_count() < 1000,
+            "seed {seed}: {}",
+            mcl.particle_count()
+        );
+    }
+}
+
+#[test]
+fn random_injection_recovers_from_kidnapping() {
+    let grid = asymmetric_room();
+    let before = route(Pose2::new(1.0, 1.0, 0.0), &[[7.0, 1.0], [7.0, 3.0]]);
+    let init = InitialBelief::Tracking {
+        pose: before[0],
+        sigma: [0.1, 0.1, 0.05],
+    };
+    let mut mcl = Mcl::new("mcl", MclParams::default(), &grid, init, 21).unwrap();
+    let e = drive(&mut mcl, &grid, &before, 1);
+    assert!(*e.last().unwrap() < 0.1);
+    assert!(mcl.injection_probability() < 0.05);
+    // Kidnap: the robot is carried to the other side of the hanging wall; odometry does not
+    // notice.
+    let after = route(
+        Pose2::new(3.0, 6.5, -FRAC_PI_2),
+        &[
+            [3.0, 4.5],
+            [7.0, 3.0],
+            [7.0, 4.5],
+            [6.0, 4.5],
+            [6.0, 3.0],
+            [2.0, 3.0],
+            [2.0, 6.0],
+        ],
+    );
+    let e = drive(&mut mcl, &grid, &after[..3], 2);
+    assert!(*e.last().unwrap() > 1.0, "the kidnap should be felt: {e:?}");
+    let e = drive(&mut mcl, &grid, &after[2..], 2);
+    let last = *e.last().unwrap();
+    let recovered_at = e.iter().rposition(|x| *x >= 0.3).map_or(0, |k| k + 1);
+    eprintln!(
+        "kidnap: final {last:.3} m, recovered from step {recovered_at} of {}",
+        e.len()
+    );
+    assert!(last < 0.3, "final error {last}");
+    assert!(recovered_at < e.len() * 3 / 4);
+}
+
+#[test]
+fn without_injection_a_kidnapped_filter_stays_lost() {
+    let grid = asymmetric_room();
+    let before = route(Pose2::new(1.0, 1.0, 0.0), &[[7.0, 1.0], [7.0, 3.0]]);
+    let params = MclParams {
+        alpha_slow: 0.0,
+        alpha_fast: 0.0,
+        ..MclParams::default()
+    };
+    let init = InitialBelief::Tracking {
+        pose: before[0],
+        sigma: [0.1, 0.1, 0.05],
+    };
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 21).unwrap();
+    drive(&mut mcl, &grid, &before, 1);
+    let after = route(
+        Pose2::new(3.0, 6.5, -FRAC_PI_2),
+        &[[3.0, 4.5], [7.0, 3.0], [7.0, 4.5]],
+    );
+    let e = drive(&mut mcl, &grid, &after, 2);
+    assert_eq!(mcl.injection_probability(), 0.0);
+    assert!(*e.last().unwrap() > 1.0, "{}", e.last().unwrap());
+}
+
+#[test]
+fn global_belief_respects_regions() {
+    let grid = asymmetric_room();
+    let poly = vec![[1.0, 1.0], [3.0, 1.0], [3.0, 2.0], [1.0, 2.0]];
+    let init = InitialBelief::Global {
+        regions: vec![poly],
+    };
+    let mcl = Mcl::new("mcl", MclParams::default(), &grid, init, 1).unwrap();
+    for (p, w) in mcl.particles() {
+        // Cell centres inside the polygon; a particle may sit anywhere in its cell.
+        assert!(
+            p.x >= 1.0 - RES && p.x <= 3.0 + RES && p.y >= 1.0 - RES && p.y <= 2.0 + RES,
+            "{p:?}"
+        );
+        assert!((w - 1.0 / mcl.particle_count() as f64).abs() < 1e-15);
+    }
+    // A region over the solid corner has no free cell.
+    let init = InitialBelief::Global {
+        regions: vec![vec![[9.0, 6.0], [11.0, 6.0], [11.0, 7.0]]],
+    };
+    let e = Mcl::new("mcl", MclParams::default(), &grid, init, 1).unwrap_err();
+    assert!(e.to_string().contains("`regions`"), "{e}");
+}
+
+#[test]
+fn tracking_belief_is_sized_by_kld_and_centred() {
+    let grid = asymmetric_room();
+    let pose = Pose2::new(4.0, 3.0, 1.0);
+    let narrow = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &grid,
+        InitialBelief::Tracking {
+            pose,
+            sigma: [0.0; 3],
+        },
+        1,
+    )
+    .unwrap();
+    assert_eq!(narrow.particle_count(), 500);
+    let e = narrow.estimate();
+    assert!(e.pose.distance(&pose) < 1e-12 && e.pose.heading_error(&pose) < 1e-12);
+    let wide = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &grid,
+        InitialBelief::Tracking {
+            pose,
+            sigma: [1.0, 1.0, 0.5],
+        },
+        1,
+    )
+    .unwrap();
+    assert!(wide.particle_count() > 2000, "{}", wide.particle_count());
+    let e = wide.estimate();
+    assert!(e.pose.distance(&pose) < 0.1);
+    assert!(
+        (e.covariance[(0, 0)] - 1.0).abs() < 0.15,
+        "{}",
+        e.covariance
+    );
+    assert!(
+        (e.covariance[(2, 2)] - 0.25).abs() < 0.05,
+        "{}",
+        e.covariance
+    );
+}
+
+#[test]
+fn pending_odometry_moves_the_estimate_and_min_distance_skips_updates() {
+    let grid = asymmetric_room();
+    let pose = Pose2::new(2.0, 2.0, FRAC_PI_2);
+    let params = MclParams {
+        update_min_d: 0.5,
+        update_min_a: 1.0,
+        ..MclParams::default()
+    };
+    let init = InitialBelief::Tracking {
+        pose,
+        sigma: [0.0; 3],
+    };
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 4).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    // The first scan is always used.
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &pose, 0.0, &mut rng)));
+    let snapshot: Vec<(Pose2, f64)> = mcl.particles().collect();
+    // 0.2 m forward in odometry: below update_min_d.
+    mcl.predict(&OdometryDelta {
+        stamp: 0.1,
+        from: Pose2::new(0.0, 0.0, 0.0),
+        to: Pose2::new(0.2, 0.0, 0.0),
+    });
+    let moved = Pose2::new(2.0, 2.2, FRAC_PI_2);
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.1, &mut rng)));
+    let now: Vec<(Pose2, f64)> = mcl.particles().collect();
+    assert_eq!(
+        snapshot, now,
+        "update below update_min_d must not touch the particles"
+    );
+    let e = mcl.estimate();
+    let base = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &grid,
+        InitialBelief::Tracking {
+            pose,
+            sigma: [0.0; 3],
+        },
+        4,
+    )
+    .unwrap();
+    // The estimate is the particles' mean moved by the pending 0.2 m (heading +y).
+    let mean_before = base.estimate().pose;
+    assert!(e.pose.distance(&moved) < 0.05, "{:?}", e.pose);
+    assert!((e.pose.y - mean_before.y - 0.2).abs() < 0.05);
+    assert_eq!(e.stamp, 0.1);
+    // Another 0.4 m: now above the threshold, the update runs.
+    mcl.predict(&OdometryDelta {
+        stamp: 0.2,
+        from: Pose2::new(0.2, 0.0, 0.0),
+        to: Pose2::new(0.6, 0.0, 0.0),
+    });
+    let moved = Pose2::new(2.0, 2.6, FRAC_PI_2);
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.2, &mut rng)));
+    let now: Vec<(Pose2, f64)> = mcl.particles().collect();
+    assert_ne!(snapshot, now);
+    assert!(mcl.estimate().pose.distance(&moved) < 0.1);
+}
+
+#[test]
+fn a_coarser_map_is_resampled_to_the_field_resolution() {
+    // 0.1 m map with a one-cell wall at x ∈ [0.5, 0.6).
+    let (w, h) = (20, 10);
+    let mut cells = vec![Cell::Free; w * h];
+    for j in 0..h {
+        cells[j * w + 5] = Cell::Occupied;
+    }
+    let coarse = OccupancyGrid {
+        origin: [0.0, 0.0],
+        resolution: 0.1,
+        width: w,
+        height: h,
+        cells,
+    };
+    let fine = resample_grid(&coarse, 0.05);
+    assert_eq!((fine.width, fine.height), (40, 20));
+    for j in 0..20 {
+        for i in 0..40 {
+            let expect = if i == 10 || i == 11 {
+                Cell::Occupied
+            } else {
+                Cell::Free
+            };
+            assert_eq!(fine.cells[j * 40 + i], expect, "({i},{j})");
+        }
+    }
+    let mcl = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &coarse,
+        InitialBelief::Global { regions: vec![] },
+        1,
+    )
+    .unwrap();
+    assert_eq!(mcl.field.resolution(), 0.05);
+    assert_eq!(mcl.field.distance(0.52, 0.3), Some(0.0));
+    // Cell 20 (x ∈ [1.0, 1.05)) is 9 cells from the wall cell 11.
+    assert!((mcl.field.distance(1.02, 0.3).unwrap() - 0.45).abs() < 1e-12);
+}
+
+#[test]
+fn params_defaults_deserialize_and_validate() {
+    let d = MclParams::default();
+    assert!(d.validate().is_ok());
+    let p: MclParams = serde_json::from_str(r#"{"sigma_hit": 0.1, "max_beams": 30}"#).unwrap();
+    assert_eq!(p.sigma_hit, 0.1);
+    assert_eq!(p.max_beams, 30);
+    assert_eq!(p.max_particles, 5000);
+    assert_eq!(p.kld_bin[2], 10f64.to_radians());
+    let e = serde_json::from_str::<MclParams>(r#"{"sigma": 0.1}"#).unwrap_err();
+    assert!(e.to_string().contains("unknown field `sigma`"), "{e}");
+
+    let bad = |f: fn(&mut MclParams), field: &str| {
+        let mut p = MclParams::default();
+        f(&mut p);
+        let msg = p.validate().unwrap_err();
+        assert!(msg.contains(field), "{msg}");
+        let grid = asymmetric_room();
+        let e = Mcl::new(
+            "mcl",
+            p,
+            &grid,
+            InitialBelief::Global { regions: vec![] },
+            0,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains(field), "{e}");
+    };
+    bad(|p| p.min_particles = 0, "min_particles");
+    bad(|p| p.max_particles = 100, "max_particles");
+    bad(|p| p.alpha[2] = -0.1, "alpha[2]");
+    bad(|p| p.kld_delta = 1.0, "kld_delta");
+    bad(|p| p.kld_bin[1] = 0.0, "kld_bin[1]");
+    bad(|p| p.sigma_hit = f64::NAN, "sigma_hit");
+    bad(|p| p.z_rand = 0.0, "z_rand");
+    bad(|p| p.max_beams = 0, "max_beams");
+    bad(|p| p.grid_resolution = -0.05, "grid_resolution");
+    bad(|p| p.alpha_slow = 0.5, "alpha_slow");
+    bad(|p| p.update_min_a = f64::INFINITY, "update_min_a");
+    // Recovery off is valid.
+    let off = MclParams {
+        alpha_slow: 0.0,
+        alpha_fast: 0.0,
+        ..MclParams::default()
+    };
+    assert!(off.validate().is_ok());
+}
+
+#[test]
+fn initial_belief_deserializes_and_bad_input_is_an_error() {
+    let b: InitialBelief =
+        serde_json::from_str(r#"{"kind": "tracking", "pose": {"x": 1.0, "y": 2.0, "theta": 0.5}, "sigma": [0.1, 0.1, 0.05]}"#)
+            .unwrap();
+    assert_eq!(
+        b,
+        InitialBelief::Tracking {
+            pose: Pose2::new(1.0, 2.0, 0.5),
+            sigma: [0.1, 0.1, 0.05]
+        }
+    );
+    let g: InitialBelief = serde_json::from_str(r#"{"kind": "global"}"#).unwrap();
+    assert_eq!(g, InitialBelief::Global { regions: vec![] });
+    let grid = asymmetric_room();
+    let e = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &grid,
+        InitialBelief::Tracking {
+            pose: Pose2::new(f64::NAN, 0.0, 0.0),
+            sigma: [0.1; 3],
+        },
+        0,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("`pose`"), "{e}");
+    let e = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &grid,
+        InitialBelief::Tracking {
+            pose: Pose2::default(),
+            sigma: [0.1, -1.0, 0.1],
+        },
+        0,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("`sigma`"), "{e}");
+    let mut broken = grid.clone();
+    broken.width += 1;
+    let e = Mcl::new(
+        "mcl",
+        MclParams::default(),
+        &broken,
+        InitialBelief::Global { regions: vec![] },
+        0,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("`cells`"), "{e}");
+}
+
+#[test]
+fn same_seed_same_run() {
+    let grid = asymmetric_room();
+    let truth = route(Pose2::new(1.0, 1.0, 0.0), &[[3.0, 1.0]]);
+    let run = || {
+        let init = InitialBelief::Tracking {
+            pose: truth[0],
+            sigma: [0.2, 0.2, 0.1],
+        };
+        let mut mcl = Mcl::new("mcl", MclParams::default(), &grid, init, 99).unwrap();
+        drive(&mut mcl, &grid, &truth, 1);
+        mcl.estimate()
+    };
+    assert_eq!(run(), run());
+}
