@@ -80,6 +80,9 @@ pub struct RobotModel {
     pub chassis_shapes: Vec<ShapeInstance>,
     /// Mass of everything except the drive wheels (casters included), kg.
     pub chassis_mass: f64,
+    /// Centre of mass of everything except the drive wheels, in the base frame, from the
+    /// URDF's inertial origins.
+    pub chassis_com: Vector3<f64>,
     pub left_wheel: Wheel,
     pub right_wheel: Wheel,
     pub casters: Vec<Caster>,

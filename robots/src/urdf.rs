@@ -797,6 +797,19 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
             ),
         ));
     }
+    // Centre of mass of the chassis from the URDF inertials (not from collision volumes:
+    // a heavy sensor on a light frame moves it, and with a single rear caster that decides
+    // whether the robot tips forward when it brakes).
+    let chassis_com = nodes
+        .iter()
+        .filter(|n| !wheel_links.contains(&n.link.name))
+        .map(|n| {
+            let origin = origin_pose(&n.link.inertial.origin);
+            let c = n.pose * origin * nalgebra::Point3::origin();
+            c.coords * n.link.inertial.mass.value
+        })
+        .fold(Vector3::zeros(), |a, b| a + b)
+        / chassis_mass;
     for w in [&mut left_wheel, &mut right_wheel] {
         if w.mass <= 0.0 {
             w.mass = DEFAULT_WHEEL_MASS_FRACTION * chassis_mass;
@@ -943,6 +956,7 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
         base_link: nodes[0].link.name.clone(),
         chassis_shapes,
         chassis_mass,
+        chassis_com,
         left_wheel,
         right_wheel,
         casters,

@@ -5,10 +5,10 @@
 
 use crate::error::SimError;
 use atrium_robots::{normalize_angle, DiffDrive, Pose2};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Limits and tolerances of the waypoint follower (SI units).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ControllerParams {
     /// m/s

@@ -40,6 +40,7 @@ pub fn pioneer_3dx_like() -> RobotModel {
             pose: Isometry3::translation(-0.045, 0.0, 0.06 + 0.5 * 0.237),
         }],
         chassis_mass: 13.5,
+        chassis_com: Vector3::new(-0.045, 0.0, 0.06 + 0.5 * 0.237),
         left_wheel: wheel("left", 0.165),
         right_wheel: wheel("right", -0.165),
         casters: vec![Caster {

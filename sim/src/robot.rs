@@ -243,10 +243,29 @@ impl RobotBodies {
             InteractionGroups::new(ROBOT_GROUP, FLOOR_GROUP, InteractionTestMode::And);
         let base = pose3(&start, base_z);
         let physics = &mut scene.physics;
-        let chassis = physics.insert_body(RigidBodyBuilder::dynamic().pose(base).can_sleep(false));
+        // Mass and centre of mass come from the URDF inertials, not from the collision
+        // volumes (uniform density would put a heavy sensor's mass all over the body); the
+        // rotational inertia is that of the collision compound at that mass.
+        let chassis_mass = model.chassis_mass as f32;
+        let volume_props = compound.mass_properties(1.0);
+        let density = chassis_mass * volume_props.inv_mass;
+        let shape_props = compound.mass_properties(density);
+        let com = &model.chassis_com;
+        let props = MassProperties::with_principal_inertia_frame(
+            vec3(com.x, com.y, com.z),
+            chassis_mass,
+            shape_props.principal_inertia(),
+            shape_props.principal_inertia_local_frame,
+        );
+        let chassis = physics.insert_body(
+            RigidBodyBuilder::dynamic()
+                .pose(base)
+                .additional_mass_properties(props)
+                .can_sleep(false),
+        );
         physics.insert_collider(
             ColliderBuilder::new(compound.clone())
-                .mass(model.chassis_mass as f32)
+                .density(0.0)
                 .collision_groups(groups),
             Some(chassis),
         );
@@ -412,13 +431,21 @@ mod tests {
         let model = fixtures::pioneer_3dx_like();
         let robot = RobotBodies::spawn(&mut scene, &model, Pose2::new(0.5, -0.25, 0.3)).unwrap();
         assert_eq!(robot.base_z, 0.0);
+        for _ in 0..400 {
+            scene.physics.step();
+        }
+        // Mass properties given to a body builder are applied at the first step.
         let total = scene.physics.bodies[robot.chassis].mass()
             + scene.physics.bodies[robot.left.body].mass()
             + scene.physics.bodies[robot.right.body].mass();
         assert!((total as f64 - model.mass()).abs() < 1e-4, "{total}");
-        for _ in 0..400 {
-            scene.physics.step();
-        }
+        let com = scene.physics.bodies[robot.chassis].center_of_mass();
+        let base = robot.base_pose(&scene.physics);
+        let local = base.inverse_transform_point(com);
+        assert!(
+            (local.x as f64 - model.chassis_com.x).abs() < 1e-3,
+            "{local:?}"
+        );
         // Two seconds with the motors holding zero speed: the robot has settled in place,
         // no deeper than contact softness lets it sink, and level.
         let p = robot.base_pose(&scene.physics);
