@@ -252,9 +252,33 @@ impl LikelihoodField {
         self.cell_index(x, y).map(|k| self.dist[k])
     }
 
-    /// Log-likelihood of a beam endpoint at (x, y).
+    /// Log-likelihood of a beam endpoint at (x, y), interpolated bilinearly between the four
+    /// nearest cell centres. A per-cell constant would make the likelihood a staircase with
+    /// plateaus a cell wide, and the particle mean drifts across such a plateau: measured on
+    /// the campus corridors, a steady 4–5 cm along-track bias at 0.05 m cells. Outside the
+    /// grid (or at NaN) the z_rand floor.
     #[inline]
     pub fn log_likelihood(&self, x: f64, y: f64) -> f64 {
+        let u = (x - self.origin[0]) * self.inv_resolution - 0.5;
+        let v = (y - self.origin[1]) * self.inv_resolution - 0.5;
+        // Written so that NaN fails the test.
+        if !(u >= 0.0 && v >= 0.0 && u < (self.width - 1) as f64 && v < (self.height - 1) as f64) {
+            return self.log_nearest(x, y);
+        }
+        let (i, j) = (u as usize, v as usize);
+        let (fu, fv) = (u - i as f64, v - j as f64);
+        let k = j * self.width + i;
+        let w = self.width;
+        let (a, b) = (self.log_p[k] as f64, self.log_p[k + 1] as f64);
+        let (c, d) = (self.log_p[k + w] as f64, self.log_p[k + w + 1] as f64);
+        let bottom = a + (b - a) * fu;
+        let top = c + (d - c) * fu;
+        bottom + (top - bottom) * fv
+    }
+
+    /// Log-likelihood of the cell containing (x, y), without interpolation.
+    #[inline]
+    pub fn log_nearest(&self, x: f64, y: f64) -> f64 {
         match self.cell_index(x, y) {
             Some(k) => self.log_p[k] as f64,
             None => self.log_floor,

@@ -251,7 +251,12 @@ fn random_injection_recovers_from_kidnapping() {
         pose: before[0],
         sigma: [0.1, 0.1, 0.05],
     };
-    let mut mcl = Mcl::new("mcl", MclParams::default(), &grid, init, 21).unwrap();
+    let params = MclParams {
+        alpha_slow: 0.001,
+        alpha_fast: 0.1,
+        ..MclParams::default()
+    };
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 21).unwrap();
     let e = drive(&mut mcl, &grid, &before, 1);
     assert!(*e.last().unwrap() < 0.1);
     assert!(mcl.injection_probability() < 0.05);
@@ -462,9 +467,13 @@ fn a_coarser_map_is_resampled_to_the_field_resolution() {
             assert_eq!(fine.cells[j * 40 + i], expect, "({i},{j})");
         }
     }
+    let params = MclParams {
+        grid_resolution: 0.05,
+        ..MclParams::default()
+    };
     let mcl = Mcl::new(
         "mcl",
-        MclParams::default(),
+        params,
         &coarse,
         InitialBelief::Global { regions: vec![] },
         1,
