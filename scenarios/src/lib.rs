@@ -1,1 +1,30 @@
-//! Scenarios (being written).
+//! Scenarios: the format, the runner (sim stream -> localizers -> metrics), expectations,
+//! reports (tables, JSON, SVG/PNG pictures, TUM trajectories) and benchmarks. The `atrium`
+//! binary in `main.rs` is a thin shell over this library.
+
+pub mod bench;
+pub mod error;
+pub mod expect;
+pub mod inspect;
+pub mod metrics;
+pub mod output;
+pub mod plot;
+pub mod report;
+pub mod runner;
+pub mod scenario;
+pub mod seeds;
+pub mod tum;
+
+pub use error::ScenarioError;
+pub use runner::{run_scenario, RunOptions, RunResult};
+pub use scenario::Scenario;
+
+/// The folder holding the bundled scenarios (`scenarios/` of the source tree).
+pub fn bundled_scenarios_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+/// The scenario `atrium` runs with no arguments.
+pub fn default_scenario() -> std::path::PathBuf {
+    bundled_scenarios_dir().join("tour.toml")
+}

@@ -1,0 +1,30 @@
+use std::path::PathBuf;
+
+/// Bad input to a scenario run. Every variant names the file and, where there is one, the field.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{file}: cannot read file: {err}")]
+    Io { file: PathBuf, err: std::io::Error },
+    #[error("{file}: malformed TOML: {msg}")]
+    Parse { file: PathBuf, msg: String },
+    #[error("{file}: {field}: {msg}")]
+    Field {
+        file: PathBuf,
+        field: String,
+        msg: String,
+    },
+    #[error(transparent)]
+    World(#[from] atrium_worlds::WorldError),
+    #[error(transparent)]
+    Robot(#[from] atrium_robots::RobotError),
+}
+
+impl ScenarioError {
+    pub fn field(file: &std::path::Path, field: impl Into<String>, msg: impl Into<String>) -> Self {
+        ScenarioError::Field {
+            file: file.to_path_buf(),
+            field: field.into(),
+            msg: msg.into(),
+        }
+    }
+}

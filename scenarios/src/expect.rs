@@ -1,0 +1,457 @@
+//! `[expect.<localizer>]`: bounds a run must meet, each on a metric named by a path.
+//!
+//! Shorthand keys (`median_max = 0.05`) bound the position error; the full set is:
+//! - `<stat>_max` / `<stat>_min`, stat ∈ min, median, mean, rmse, p95, max: position error (m)
+//! - `final_max` / `final_min`: position error at the end of the run
+//! - `heading_<stat>_max` / `_min`: heading error (rad)
+//! - `converged_within_s`: time to converge; `converged_<stat>_max` / `_min`: error after it
+//! - `recovered_within_s`: the longest recovery after a kidnapping
+//! - `nees_max` / `nees_min`: mean NEES over (x, y)
+//! - `[expect.L.regions.<name>]` / `[expect.L.region_kinds.<kind>]`: `<stat>_max` / `_min` there
+//! - `[[expect.L.ratios]] numerator = "<path>", denominator = "<path>", min = .., max = ..`
+//! - `[[expect.L.compare]] metric = "<path>", other = "<localizer>", max_ratio = .., min_ratio = ..`
+//!
+//! A metric path is `position_error.<stat>`, `heading_error.<stat>`, `final_position_error`,
+//! `converged_after_s`, `after_convergence.<stat>`, `recovered_after_s`, `mean_nees_xy`,
+//! `regions.<name>.<stat>` or `region_kinds.<kind>.<stat>`.
+
+use crate::error::ScenarioError;
+use crate::metrics::LocalizerMetrics;
+use crate::scenario::Scenario;
+use serde::Serialize;
+
+const STATS: [&str; 6] = ["min", "median", "mean", "rmse", "p95", "max"];
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bound {
+    Max,
+    Min,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Expectation {
+    /// `metric` of this localizer must be <= (Max) or >= (Min) `limit`.
+    Bound {
+        metric: String,
+        bound: Bound,
+        limit: f64,
+    },
+    /// numerator / denominator, both of this localizer.
+    Ratio {
+        numerator: String,
+        denominator: String,
+        bound: Bound,
+        limit: f64,
+    },
+    /// metric of this localizer / the same metric of `other`.
+    Compare {
+        metric: String,
+        other: String,
+        bound: Bound,
+        limit: f64,
+    },
+}
+
+/// The outcome of one expectation, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ExpectationResult {
+    pub metric: String,
+    pub bound: Bound,
+    pub limit: f64,
+    /// `None` when the metric does not exist for this run (never converged, region never
+    /// visited, ...): that fails the expectation.
+    pub value: Option<f64>,
+    pub passed: bool,
+}
+
+/// What a metric path resolves against.
+pub struct MetricSource<'a> {
+    pub metrics: &'a LocalizerMetrics,
+    /// Recovery time per kidnapping (None: never recovered).
+    pub recoveries: &'a [Option<f64>],
+}
+
+fn stat_suffix(key: &str) -> Option<(&str, Bound)> {
+    if let Some(s) = key.strip_suffix("_max") {
+        Some((s, Bound::Max))
+    } else {
+        key.strip_suffix("_min").map(|s| (s, Bound::Min))
+    }
+}
+
+fn number(v: &toml::Value, file: &std::path::Path, field: &str) -> Result<f64, ScenarioError> {
+    let x = match v {
+        toml::Value::Float(f) => *f,
+        toml::Value::Integer(i) => *i as f64,
+        _ => return Err(ScenarioError::field(file, field, "must be a number")),
+    };
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(ScenarioError::field(
+            file,
+            field,
+            format!("must be finite, got {x}"),
+        ))
+    }
+}
+
+/// Checks that a metric path names something that can exist.
+fn check_path(path: &str, scenario: &Scenario, field: &str) -> Result<(), ScenarioError> {
+    let parts: Vec<&str> = path.split('.').collect();
+    let ok = match parts.as_slice() {
+        ["position_error" | "heading_error" | "after_convergence", stat] => STATS.contains(stat),
+        ["final_position_error" | "converged_after_s" | "recovered_after_s" | "mean_nees_xy"] => {
+            true
+        }
+        ["regions", name, stat] => {
+            if !scenario.world.regions.iter().any(|r| r.name == *name) {
+                return Err(ScenarioError::field(
+                    &scenario.file,
+                    field,
+                    format!(
+                        "world {:?} has no region named {name:?}",
+                        scenario.world.name
+                    ),
+                ));
+            }
+            STATS.contains(stat)
+        }
+        ["region_kinds", kind, stat] => {
+            ["corridor", "glass_corridor", "atrium", "room", "outside"].contains(kind)
+                && STATS.contains(stat)
+        }
+        _ => false,
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(ScenarioError::field(
+            &scenario.file,
+            field,
+            format!("unknown metric {path:?}"),
+        ))
+    }
+}
+
+fn bounds_in_table(
+    table: &toml::Table,
+    prefix: &str,
+    field: &str,
+    scenario: &Scenario,
+    out: &mut Vec<Expectation>,
+) -> Result<(), ScenarioError> {
+    for (key, v) in table {
+        let f = format!("{field}.{key}");
+        let (stat, bound) = stat_suffix(key)
+            .filter(|(s, _)| STATS.contains(s))
+            .ok_or_else(|| ScenarioError::field(&scenario.file, &f, "unknown key: use <stat>_max or <stat>_min with stat one of min, median, mean, rmse, p95, max"))?;
+        out.push(Expectation::Bound {
+            metric: format!("{prefix}.{stat}"),
+            bound,
+            limit: number(v, &scenario.file, &f)?,
+        });
+    }
+    Ok(())
+}
+
+/// Reads every `[expect.<localizer>]` table of a scenario.
+pub fn parse_expectations(
+    scenario: &Scenario,
+) -> Result<Vec<(String, Expectation)>, ScenarioError> {
+    let file = &scenario.file;
+    let mut all = Vec::new();
+    for (loc, value) in &scenario.expect {
+        let table = value.as_table().ok_or_else(|| {
+            ScenarioError::field(file, format!("expect.{loc}"), "must be a table")
+        })?;
+        let mut list = Vec::new();
+        for (key, v) in table {
+            let field = format!("expect.{loc}.{key}");
+            match key.as_str() {
+                "regions" | "region_kinds" => {
+                    let regions = v.as_table().ok_or_else(|| {
+                        ScenarioError::field(file, &field, "must be a table of regions")
+                    })?;
+                    for (name, t) in regions {
+                        let f = format!("{field}.{name}");
+                        let t = t
+                            .as_table()
+                            .ok_or_else(|| ScenarioError::field(file, &f, "must be a table"))?;
+                        let prefix = format!("{key}.{name}");
+                        let before = list.len();
+                        bounds_in_table(t, &prefix, &f, scenario, &mut list)?;
+                        if let Some(Expectation::Bound { metric, .. }) = list.get(before) {
+                            check_path(metric, scenario, &f)?;
+                        }
+                    }
+                }
+                "ratios" | "compare" => {
+                    let arr = v.as_array().ok_or_else(|| {
+                        ScenarioError::field(file, &field, "must be an array of tables")
+                    })?;
+                    for (i, item) in arr.iter().enumerate() {
+                        let f = format!("{field}[{i}]");
+                        let t = item
+                            .as_table()
+                            .ok_or_else(|| ScenarioError::field(file, &f, "must be a table"))?;
+                        let text = |k: &str| -> Result<String, ScenarioError> {
+                            t.get(k)
+                                .and_then(|v| v.as_str())
+                                .map(str::to_string)
+                                .ok_or_else(|| {
+                                    ScenarioError::field(
+                                        file,
+                                        format!("{f}.{k}"),
+                                        "a string is required",
+                                    )
+                                })
+                        };
+                        let mut bounds = Vec::new();
+                        for (k, v) in t {
+                            let b = match (key.as_str(), k.as_str()) {
+                                ("ratios", "min") | ("compare", "min_ratio") => Bound::Min,
+                                ("ratios", "max") | ("compare", "max_ratio") => Bound::Max,
+                                ("ratios", "numerator" | "denominator")
+                                | ("compare", "metric" | "other") => continue,
+                                _ => {
+                                    return Err(ScenarioError::field(
+                                        file,
+                                        format!("{f}.{k}"),
+                                        "unknown key",
+                                    ))
+                                }
+                            };
+                            bounds.push((b, number(v, file, &format!("{f}.{k}"))?));
+                        }
+                        if bounds.is_empty() {
+                            return Err(ScenarioError::field(
+                                file,
+                                &f,
+                                "give a lower or an upper bound",
+                            ));
+                        }
+                        for (bound, limit) in bounds {
+                            if key == "ratios" {
+                                let (numerator, denominator) =
+                                    (text("numerator")?, text("denominator")?);
+                                check_path(&numerator, scenario, &format!("{f}.numerator"))?;
+                                check_path(&denominator, scenario, &format!("{f}.denominator"))?;
+                                list.push(Expectation::Ratio {
+                                    numerator,
+                                    denominator,
+                                    bound,
+                                    limit,
+                                });
+                            } else {
+                                let (metric, other) = (text("metric")?, text("other")?);
+                                check_path(&metric, scenario, &format!("{f}.metric"))?;
+                                if !scenario.localizers.iter().any(|l| l.name == other) {
+                                    return Err(ScenarioError::field(
+                                        file,
+                                        format!("{f}.other"),
+                                        format!("no localizer named {other:?}"),
+                                    ));
+                                }
+                                list.push(Expectation::Compare {
+                                    metric,
+                                    other,
+                                    bound,
+                                    limit,
+                                });
+                            }
+                        }
+                    }
+                }
+                "converged_within_s" => list.push(Expectation::Bound {
+                    metric: "converged_after_s".into(),
+                    bound: Bound::Max,
+                    limit: number(v, file, &field)?,
+                }),
+                "recovered_within_s" => list.push(Expectation::Bound {
+                    metric: "recovered_after_s".into(),
+                    bound: Bound::Max,
+                    limit: number(v, file, &field)?,
+                }),
+                _ => {
+                    let (stem, bound) = stat_suffix(key).ok_or_else(|| {
+                        ScenarioError::field(file, &field, "unknown expectation key")
+                    })?;
+                    let metric = if stem == "final" {
+                        "final_position_error".to_string()
+                    } else if stem == "nees" {
+                        "mean_nees_xy".to_string()
+                    } else if let Some(s) = stem.strip_prefix("heading_") {
+                        format!("heading_error.{s}")
+                    } else if let Some(s) = stem.strip_prefix("converged_") {
+                        format!("after_convergence.{s}")
+                    } else {
+                        format!("position_error.{stem}")
+                    };
+                    check_path(&metric, scenario, &field).map_err(|_| {
+                        ScenarioError::field(file, &field, "unknown expectation key")
+                    })?;
+                    list.push(Expectation::Bound {
+                        metric,
+                        bound,
+                        limit: number(v, file, &field)?,
+                    });
+                }
+            }
+        }
+        all.extend(list.into_iter().map(|e| (loc.clone(), e)));
+    }
+    Ok(all)
+}
+
+/// Resolves a metric path; `None` when the metric has no value in this run.
+pub fn metric_value(src: &MetricSource, path: &str) -> Option<f64> {
+    let m = src.metrics;
+    let parts: Vec<&str> = path.split('.').collect();
+    match parts.as_slice() {
+        ["position_error", s] => m.position_error.get(s),
+        ["heading_error", s] => m.heading_error.get(s),
+        ["after_convergence", s] => m.after_convergence.and_then(|a| a.get(s)),
+        ["final_position_error"] => Some(m.final_position_error),
+        ["converged_after_s"] => m.converged_after_s,
+        ["mean_nees_xy"] => m.mean_nees_xy,
+        ["recovered_after_s"] => {
+            if src.recoveries.is_empty() {
+                return None;
+            }
+            src.recoveries
+                .iter()
+                .try_fold(0.0f64, |acc, r| r.map(|r| acc.max(r)))
+        }
+        ["regions", name, s] => m.per_region.get(*name).and_then(|r| r.get(s)),
+        ["region_kinds", kind, s] => m.per_region_kind.get(*kind).and_then(|r| r.get(s)),
+        _ => None,
+    }
+}
+
+fn check_bound(value: Option<f64>, bound: Bound, limit: f64) -> bool {
+    match (value, bound) {
+        (Some(v), Bound::Max) => v <= limit,
+        (Some(v), Bound::Min) => v >= limit,
+        (None, _) => false,
+    }
+}
+
+/// Evaluates one localizer's expectations; `lookup` finds another localizer's metrics.
+pub fn evaluate<'a>(
+    expectations: impl Iterator<Item = &'a Expectation>,
+    own: &MetricSource,
+    lookup: &dyn Fn(&str) -> Option<MetricSource<'a>>,
+) -> Vec<ExpectationResult> {
+    expectations
+        .map(|e| match e {
+            Expectation::Bound {
+                metric,
+                bound,
+                limit,
+            } => {
+                let value = metric_value(own, metric);
+                ExpectationResult {
+                    metric: metric.clone(),
+                    bound: *bound,
+                    limit: *limit,
+                    value,
+                    passed: check_bound(value, *bound, *limit),
+                }
+            }
+            Expectation::Ratio {
+                numerator,
+                denominator,
+                bound,
+                limit,
+            } => {
+                let value = match (metric_value(own, numerator), metric_value(own, denominator)) {
+                    (Some(n), Some(d)) if d > 0.0 => Some(n / d),
+                    _ => None,
+                };
+                ExpectationResult {
+                    metric: format!("{numerator} / {denominator}"),
+                    bound: *bound,
+                    limit: *limit,
+                    value,
+                    passed: check_bound(value, *bound, *limit),
+                }
+            }
+            Expectation::Compare {
+                metric,
+                other,
+                bound,
+                limit,
+            } => {
+                let value = match (
+                    metric_value(own, metric),
+                    lookup(other).and_then(|o| metric_value(&o, metric)),
+                ) {
+                    (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+                    _ => None,
+                };
+                ExpectationResult {
+                    metric: format!("{metric} / {other}.{metric}"),
+                    bound: *bound,
+                    limit: *limit,
+                    value,
+                    passed: check_bound(value, *bound, *limit),
+                }
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::{score, Sample};
+
+    #[test]
+    fn bounds_and_missing_values() {
+        let samples: Vec<Sample> = [0.1, 0.2, 0.3]
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| Sample {
+                t: i as f64,
+                position_error: e,
+                heading_error: 0.01,
+                nees_xy: None,
+            })
+            .collect();
+        let m = score(&samples, &[None, None, None], 0.5, 0.0).unwrap();
+        let src = MetricSource {
+            metrics: &m,
+            recoveries: &[],
+        };
+        let exps = [
+            Expectation::Bound {
+                metric: "position_error.median".into(),
+                bound: Bound::Max,
+                limit: 0.25,
+            },
+            Expectation::Bound {
+                metric: "position_error.max".into(),
+                bound: Bound::Max,
+                limit: 0.25,
+            },
+            Expectation::Bound {
+                metric: "recovered_after_s".into(),
+                bound: Bound::Max,
+                limit: 10.0,
+            },
+            Expectation::Ratio {
+                numerator: "position_error.max".into(),
+                denominator: "position_error.min".into(),
+                bound: Bound::Min,
+                limit: 2.9,
+            },
+        ];
+        let r = evaluate(exps.iter(), &src, &|_| None);
+        assert!(r[0].passed);
+        assert!(!r[1].passed);
+        assert!(!r[2].passed && r[2].value.is_none());
+        assert!(r[3].passed && (r[3].value.unwrap() - 3.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,87 @@
+//! Output files are written under a temporary name and renamed when complete, so an
+//! interrupted run never leaves a half-written file under the final name.
+
+use std::io::Write;
+use std::path::Path;
+
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::other(format!("{}: not a file path", path.display())))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Writes a run's files into `dir`: TUM trajectories (`ground_truth.tum`, `<localizer>.tum`),
+/// `metrics.json` (the `--json` document) and a picture per localizer
+/// (`trajectory_<localizer>.svg` / `.png`). Returns the paths written.
+pub fn write_run(
+    dir: &Path,
+    world: &atrium_worlds::World,
+    run: &crate::runner::RunResult,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
+    let mut written = Vec::new();
+    let mut put = |name: String, bytes: Vec<u8>| -> Result<(), String> {
+        let p = dir.join(name);
+        write_atomic(&p, &bytes).map_err(|e| format!("{}: {e}", p.display()))?;
+        written.push(p);
+        Ok(())
+    };
+    put(
+        "ground_truth.tum".into(),
+        crate::tum::to_tum(&run.ground_truth).into_bytes(),
+    )?;
+    for l in &run.localizers {
+        put(
+            format!("{}.tum", l.name),
+            crate::tum::to_tum(&l.trajectory).into_bytes(),
+        )?;
+        put(
+            format!("trajectory_{}.svg", l.name),
+            crate::plot::svg(world, run, l).into_bytes(),
+        )?;
+        put(
+            format!("trajectory_{}.png", l.name),
+            crate::plot::png(world, run, l)?,
+        )?;
+    }
+    let json =
+        serde_json::to_string_pretty(&crate::report::to_json(run)).map_err(|e| e.to_string())?;
+    put("metrics.json".into(), json.into_bytes())?;
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_whole_file_and_leaves_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("atrium-output-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("a.txt");
+        write_atomic(&p, b"hello").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"hello");
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,590 @@
+//! The scenario file: what world, which robot, where it drives, what it senses, which
+//! localizers run and what accuracy they must reach.
+//!
+//! Paths inside a scenario are relative to the scenario file.
+
+use crate::error::ScenarioError;
+use atrium_robots::{LaserSpec, OdometrySpec, Pose2, RobotModel, RobotSensors};
+use atrium_worlds::{RegionKind, World};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScenarioFile {
+    name: String,
+    #[serde(default)]
+    description: String,
+    world: PathBuf,
+    robot: PathBuf,
+    #[serde(default)]
+    seed: u64,
+    duration_s: f64,
+    #[serde(default = "default_physics_hz")]
+    physics_hz: f64,
+    #[serde(default = "default_eval_hz")]
+    eval_hz: f64,
+    start: StartFile,
+    route: RouteFile,
+    #[serde(default)]
+    controller: Option<toml::Table>,
+    #[serde(default)]
+    sensors: Option<toml::Table>,
+    #[serde(default)]
+    odometry: Option<toml::Table>,
+    #[serde(default)]
+    map: MapSettings,
+    #[serde(default)]
+    initial_belief: Option<BeliefFile>,
+    #[serde(default)]
+    events: Vec<EventFile>,
+    #[serde(default)]
+    metrics: MetricSettings,
+    #[serde(default)]
+    localizers: Vec<toml::Table>,
+    #[serde(default)]
+    expect: toml::Table,
+}
+
+fn default_physics_hz() -> f64 {
+    200.0
+}
+fn default_eval_hz() -> f64 {
+    10.0
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StartFile {
+    pose: [f64; 3],
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RouteFile {
+    waypoints: Vec<[f64; 2]>,
+    /// Keep simulating this long after the last waypoint (lets estimates settle).
+    #[serde(default)]
+    settle_s: f64,
+}
+
+/// Which map the localizers are given.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MapSettings {
+    /// Occupancy grid cell size, m.
+    pub resolution: f64,
+    /// Whether glass walls are in the map. A map built by a laser misses most glass.
+    pub include_glass: bool,
+}
+
+impl Default for MapSettings {
+    fn default() -> Self {
+        Self {
+            resolution: 0.02,
+            include_glass: false,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, tag = "mode", rename_all = "snake_case")]
+enum BeliefFile {
+    Tracking {
+        #[serde(default = "default_sigma")]
+        sigma: [f64; 3],
+    },
+    Global {
+        #[serde(default)]
+        regions: Vec<String>,
+        #[serde(default)]
+        region_kinds: Vec<RegionKind>,
+    },
+}
+
+fn default_sigma() -> [f64; 3] {
+    [0.1, 0.1, 0.05]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+enum EventFile {
+    /// Teleport the robot: the localizers are not told.
+    Kidnap { at_s: f64, to: [f64; 3] },
+}
+
+/// How errors are summarised.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricSettings {
+    /// A localizer has converged once its position error stays at or below this, m.
+    pub converge_threshold_m: f64,
+    /// ... for at least this long, s.
+    pub converge_hold_s: f64,
+}
+
+impl Default for MetricSettings {
+    fn default() -> Self {
+        Self {
+            converge_threshold_m: 0.3,
+            converge_hold_s: 2.0,
+        }
+    }
+}
+
+/// The initial belief handed to every localizer.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InitialBelief {
+    /// The start pose is known up to Gaussian noise.
+    Tracking { sigma: [f64; 3] },
+    /// Unknown start, uniform over the free space inside these polygons (all free space when
+    /// empty).
+    Global { polygons: Vec<Vec<[f64; 2]>> },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    Kidnap { at_s: f64, to: Pose2 },
+}
+
+impl Event {
+    pub fn at_s(&self) -> f64 {
+        match self {
+            Event::Kidnap { at_s, .. } => *at_s,
+        }
+    }
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::Kidnap { .. } => "kidnap",
+        }
+    }
+}
+
+/// One localizer to run: its name in reports, its kind, and its parameter table (kind-specific,
+/// checked when the localizer is built).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalizerSpec {
+    pub name: String,
+    pub kind: String,
+    pub params: toml::Table,
+}
+
+/// A loaded, validated scenario with its world and robot.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    pub file: PathBuf,
+    pub name: String,
+    pub description: String,
+    pub world_file: PathBuf,
+    pub robot_file: PathBuf,
+    pub world: World,
+    pub robot: RobotModel,
+    pub seed: u64,
+    pub duration_s: f64,
+    pub physics_hz: f64,
+    pub eval_hz: f64,
+    pub start: Pose2,
+    pub waypoints: Vec<[f64; 2]>,
+    pub settle_s: f64,
+    pub controller: atrium_sim::ControllerParams,
+    pub odometry: OdometrySpec,
+    pub lasers: Vec<LaserSpec>,
+    pub map: MapSettings,
+    pub initial_belief: InitialBelief,
+    pub events: Vec<Event>,
+    pub metrics: MetricSettings,
+    pub localizers: Vec<LocalizerSpec>,
+    /// `[expect.<localizer>]` tables, checked after the run.
+    pub expect: toml::Table,
+    /// The scenario file's text, kept for dataset metadata.
+    pub text: String,
+}
+
+fn check_finite(file: &Path, field: &str, values: &[f64]) -> Result<(), ScenarioError> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(ScenarioError::field(
+            file,
+            field,
+            format!("must be finite, got {values:?}"),
+        ))
+    }
+}
+
+fn check_positive(file: &Path, field: &str, v: f64) -> Result<(), ScenarioError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ScenarioError::field(
+            file,
+            field,
+            format!("must be a positive number, got {v}"),
+        ))
+    }
+}
+
+/// Merges a table of overrides into a serde-serialisable value and reads it back, so that a
+/// scenario can change one field of a default without restating the rest.
+fn apply_overrides<T>(
+    base: &T,
+    overrides: &toml::Table,
+    file: &Path,
+    field: &str,
+) -> Result<T, ScenarioError>
+where
+    T: serde::Serialize + serde::de::DeserializeOwned,
+{
+    let mut merged = toml::Table::try_from(base)
+        .map_err(|e| ScenarioError::field(file, field, format!("cannot merge defaults: {e}")))?;
+    for (k, v) in overrides {
+        if !merged.contains_key(k) {
+            let known: Vec<&str> = merged.keys().map(String::as_str).collect();
+            return Err(ScenarioError::field(
+                file,
+                format!("{field}.{k}"),
+                format!("unknown key (known: {})", known.join(", ")),
+            ));
+        }
+        merged.insert(k.clone(), v.clone());
+    }
+    toml::Value::Table(merged)
+        .try_into()
+        .map_err(|e: toml::de::Error| ScenarioError::field(file, field, e.message().to_string()))
+}
+
+impl Scenario {
+    pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
+            file: path.to_path_buf(),
+            err,
+        })?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates scenario text; relative paths resolve against `file`'s folder.
+    pub fn from_toml_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
+        let raw: ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            file: file.to_path_buf(),
+            msg: e.to_string(),
+        })?;
+        let dir = file.parent().unwrap_or(Path::new("."));
+        let world_file = dir.join(&raw.world);
+        let robot_file = dir.join(&raw.robot);
+        let world = World::load(&world_file)?;
+        let robot = RobotModel::from_urdf(&robot_file)?;
+
+        check_positive(file, "duration_s", raw.duration_s)?;
+        check_positive(file, "eval_hz", raw.eval_hz)?;
+        if !(raw.physics_hz.is_finite() && (50.0..=5000.0).contains(&raw.physics_hz)) {
+            return Err(ScenarioError::field(
+                file,
+                "physics_hz",
+                format!("must be between 50 and 5000 Hz, got {}", raw.physics_hz),
+            ));
+        }
+        check_finite(file, "start.pose", &raw.start.pose)?;
+        let start = Pose2::new(raw.start.pose[0], raw.start.pose[1], raw.start.pose[2]);
+        if raw.route.waypoints.is_empty() {
+            return Err(ScenarioError::field(
+                file,
+                "route.waypoints",
+                "needs at least one waypoint",
+            ));
+        }
+        if !(raw.route.settle_s.is_finite() && raw.route.settle_s >= 0.0) {
+            return Err(ScenarioError::field(file, "route.settle_s", "must be >= 0"));
+        }
+        for (i, w) in raw.route.waypoints.iter().enumerate() {
+            let field = format!("route.waypoints[{i}]");
+            check_finite(file, &field, w)?;
+            if !world.is_free(*w, 0.0) {
+                return Err(ScenarioError::field(
+                    file,
+                    field,
+                    format!(
+                        "({}, {}) lies inside a wall or pillar of world {:?}",
+                        w[0], w[1], world.name
+                    ),
+                ));
+            }
+        }
+
+        let controller = match &raw.controller {
+            Some(t) => apply_overrides(
+                &atrium_sim::ControllerParams::default(),
+                t,
+                file,
+                "controller",
+            )?,
+            None => atrium_sim::ControllerParams::default(),
+        };
+        controller
+            .validate()
+            .map_err(|e| ScenarioError::field(file, "controller", e.to_string()))?;
+
+        // Sensors: the robot's sensor file, overridden by the scenario.
+        let sensor_file = RobotSensors::path_beside(&robot_file);
+        let robot_sensors = if sensor_file.exists() {
+            RobotSensors::load(&sensor_file)?
+        } else {
+            RobotSensors {
+                odometry: OdometrySpec::default(),
+                lasers: Vec::new(),
+            }
+        };
+        let odometry = match &raw.odometry {
+            Some(t) => apply_overrides(&robot_sensors.odometry, t, file, "odometry")?,
+            None => robot_sensors.odometry,
+        };
+        odometry
+            .validate()
+            .map_err(|msg| ScenarioError::field(file, "odometry", msg))?;
+        let mut lasers = robot_sensors.lasers.clone();
+        if let Some(sensors) = &raw.sensors {
+            for (name, value) in sensors {
+                let field = format!("sensors.{name}");
+                let table = value
+                    .as_table()
+                    .ok_or_else(|| ScenarioError::field(file, &field, "must be a table"))?;
+                let mut table = table.clone();
+                // A sensor named like one in the robot's file inherits that sensor's values.
+                let existing = lasers.iter().position(|l| &l.name == name);
+                if let Some(i) = existing {
+                    if !table.contains_key("preset") {
+                        let base = toml::Table::try_from(&lasers[i])
+                            .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
+                        for (k, v) in base {
+                            table.entry(k).or_insert(v);
+                        }
+                    }
+                }
+                table
+                    .entry("name")
+                    .or_insert_with(|| toml::Value::String(name.clone()));
+                let spec =
+                    LaserSpec::from_table(&table, &field).map_err(|msg| ScenarioError::Field {
+                        file: file.to_path_buf(),
+                        field: field.clone(),
+                        msg,
+                    })?;
+                match existing {
+                    Some(i) => lasers[i] = spec,
+                    None => lasers.push(spec),
+                }
+            }
+        }
+        for (i, l) in lasers.iter().enumerate() {
+            l.validate()
+                .map_err(|msg| ScenarioError::field(file, format!("sensors.{}", l.name), msg))?;
+            if robot.mount(&l.mount).is_none() {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("sensors.{}.mount", lasers[i].name),
+                    format!("robot {:?} has no link named {:?}", robot.name, l.mount),
+                ));
+            }
+        }
+
+        if !(raw.map.resolution.is_finite()
+            && raw.map.resolution >= 0.01
+            && raw.map.resolution <= 1.0)
+        {
+            return Err(ScenarioError::field(
+                file,
+                "map.resolution",
+                format!("must be between 0.01 and 1 m, got {}", raw.map.resolution),
+            ));
+        }
+
+        let initial_belief = match raw.initial_belief {
+            None => InitialBelief::Tracking {
+                sigma: default_sigma(),
+            },
+            Some(BeliefFile::Tracking { sigma }) => {
+                if !sigma.iter().all(|s| s.is_finite() && *s >= 0.0) {
+                    return Err(ScenarioError::field(
+                        file,
+                        "initial_belief.sigma",
+                        format!("must be finite and >= 0, got {sigma:?}"),
+                    ));
+                }
+                InitialBelief::Tracking { sigma }
+            }
+            Some(BeliefFile::Global {
+                regions,
+                region_kinds,
+            }) => {
+                let mut polygons = Vec::new();
+                for (i, name) in regions.iter().enumerate() {
+                    let r = world
+                        .regions
+                        .iter()
+                        .find(|r| &r.name == name)
+                        .ok_or_else(|| {
+                            ScenarioError::field(
+                                file,
+                                format!("initial_belief.regions[{i}]"),
+                                format!("world {:?} has no region named {name:?}", world.name),
+                            )
+                        })?;
+                    polygons.push(r.polygon.clone());
+                }
+                for (i, kind) in region_kinds.iter().enumerate() {
+                    let before = polygons.len();
+                    polygons.extend(
+                        world
+                            .regions
+                            .iter()
+                            .filter(|r| r.kind == *kind)
+                            .map(|r| r.polygon.clone()),
+                    );
+                    if polygons.len() == before {
+                        return Err(ScenarioError::field(
+                            file,
+                            format!("initial_belief.region_kinds[{i}]"),
+                            format!("world {:?} has no region of kind {kind:?}", world.name),
+                        ));
+                    }
+                }
+                InitialBelief::Global { polygons }
+            }
+        };
+
+        let mut events = Vec::new();
+        for (i, e) in raw.events.iter().enumerate() {
+            match e {
+                EventFile::Kidnap { at_s, to } => {
+                    check_finite(file, &format!("events[{i}].to"), to)?;
+                    if !(at_s.is_finite() && *at_s >= 0.0 && *at_s < raw.duration_s) {
+                        return Err(ScenarioError::field(
+                            file,
+                            format!("events[{i}].at_s"),
+                            format!(
+                                "must lie within the run (0..{} s), got {at_s}",
+                                raw.duration_s
+                            ),
+                        ));
+                    }
+                    if !world.is_free([to[0], to[1]], 0.3) {
+                        return Err(ScenarioError::field(
+                            file,
+                            format!("events[{i}].to"),
+                            format!("({}, {}) is inside or too close to a wall", to[0], to[1]),
+                        ));
+                    }
+                    events.push(Event::Kidnap {
+                        at_s: *at_s,
+                        to: Pose2::new(to[0], to[1], to[2]),
+                    });
+                }
+            }
+        }
+        events.sort_by(|a, b| a.at_s().total_cmp(&b.at_s()));
+
+        check_positive(
+            file,
+            "metrics.converge_threshold_m",
+            raw.metrics.converge_threshold_m,
+        )?;
+        if !(raw.metrics.converge_hold_s.is_finite() && raw.metrics.converge_hold_s >= 0.0) {
+            return Err(ScenarioError::field(
+                file,
+                "metrics.converge_hold_s",
+                "must be >= 0",
+            ));
+        }
+
+        if raw.localizers.is_empty() {
+            return Err(ScenarioError::field(
+                file,
+                "localizers",
+                "name at least one localizer",
+            ));
+        }
+        let mut localizers = Vec::new();
+        for (i, t) in raw.localizers.iter().enumerate() {
+            let mut params = t.clone();
+            let name = match params.remove("name") {
+                Some(toml::Value::String(s)) if !s.is_empty() => s,
+                _ => {
+                    return Err(ScenarioError::field(
+                        file,
+                        format!("localizers[{i}].name"),
+                        "a non-empty string is required",
+                    ))
+                }
+            };
+            let kind = match params.remove("kind") {
+                Some(toml::Value::String(s)) => s,
+                _ => {
+                    return Err(ScenarioError::field(
+                        file,
+                        format!("localizers[{i}].kind"),
+                        "a string is required",
+                    ))
+                }
+            };
+            if localizers.iter().any(|l: &LocalizerSpec| l.name == name) {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("localizers[{i}].name"),
+                    format!("{name:?} is used twice"),
+                ));
+            }
+            localizers.push(LocalizerSpec { name, kind, params });
+        }
+        for key in raw.expect.keys() {
+            if !localizers.iter().any(|l| &l.name == key) {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("expect.{key}"),
+                    "names no localizer of this scenario",
+                ));
+            }
+        }
+
+        let scenario = Scenario {
+            file: file.to_path_buf(),
+            name: raw.name,
+            description: raw.description,
+            world_file,
+            robot_file,
+            world,
+            robot,
+            seed: raw.seed,
+            duration_s: raw.duration_s,
+            physics_hz: raw.physics_hz,
+            eval_hz: raw.eval_hz,
+            start,
+            waypoints: raw.route.waypoints,
+            settle_s: raw.route.settle_s,
+            controller,
+            odometry,
+            lasers,
+            map: raw.map,
+            initial_belief,
+            events,
+            metrics: raw.metrics,
+            localizers,
+            expect: raw.expect,
+            text: text.to_string(),
+        };
+        // Expectation keys are checked now, so a typo fails before a long run.
+        crate::expect::parse_expectations(&scenario)?;
+        Ok(scenario)
+    }
+
+    /// The simulator's configuration for this scenario, with the simulator's random stream
+    /// `seed`.
+    pub fn sim_config(&self, seed: u64) -> atrium_sim::SimConfig {
+        atrium_sim::SimConfig {
+            physics_hz: self.physics_hz,
+            start: self.start,
+            odometry: self.odometry,
+            lasers: self.lasers.clone(),
+            controller: self.controller,
+            seed,
+        }
+    }
+}

@@ -1,0 +1,270 @@
+//! The `atrium` binary as users' scripts see it: exit codes, messages naming file and field,
+//! stable JSON, output files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn atrium(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_atrium"))
+        .args(args)
+        .output()
+        .expect("run atrium")
+}
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
+}
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("atrium-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Writes a variant of the short scenario with one text replaced, in a temporary folder (its
+/// world and robot paths made absolute).
+fn variant(tag: &str, from: &str, to: &str) -> PathBuf {
+    let text = std::fs::read_to_string(data("short.toml")).unwrap();
+    assert!(text.contains(from), "{from:?} not in short.toml");
+    let root = repo("").canonicalize().unwrap();
+    let text = text
+        .replace("../../../", &format!("{}/", root.display()))
+        .replace(from, to);
+    let p = tmpdir(tag).join(format!("{tag}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn without_timing(mut v: serde_json::Value) -> serde_json::Value {
+    v.as_object_mut().unwrap().remove("timing");
+    v
+}
+
+#[test]
+fn same_seed_gives_identical_json_apart_from_timing() {
+    let s = data("short.toml");
+    let a = atrium(&["run", s.to_str().unwrap(), "--json"]);
+    let b = atrium(&["run", s.to_str().unwrap(), "--json"]);
+    assert!(
+        a.status.code() == Some(0) || a.status.code() == Some(1),
+        "{}",
+        stderr(&a)
+    );
+    let ja: serde_json::Value = serde_json::from_slice(&a.stdout).unwrap();
+    let jb: serde_json::Value = serde_json::from_slice(&b.stdout).unwrap();
+    assert!(ja["timing"]["real_time_factor"].as_f64().unwrap() > 0.0);
+    assert_eq!(without_timing(ja.clone()), without_timing(jb));
+    // The documented fields are there.
+    let mcl = &ja["localizers"][0];
+    assert_eq!(mcl["name"], "mcl");
+    for k in ["min", "median", "rmse", "p95", "max"] {
+        assert!(
+            mcl["position_error"][k].as_f64().is_some(),
+            "position_error.{k}"
+        );
+    }
+    assert!(mcl["per_region"]["office_corridor"]["median"]
+        .as_f64()
+        .is_some());
+    assert!(mcl.get("converged_after_s").is_some());
+    assert!(mcl["expectations"].as_array().is_some());
+    // A different seed gives a different run.
+    let c = atrium(&["run", s.to_str().unwrap(), "--json", "--seed", "99"]);
+    let jc: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
+    assert_eq!(jc["seed"], 99);
+    assert_ne!(without_timing(ja), without_timing(jc));
+}
+
+#[test]
+fn out_writes_trajectories_metrics_and_pictures() {
+    let dir = tmpdir("out");
+    let s = data("short.toml");
+    let o = atrium(&["run", s.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{}",
+        stderr(&o)
+    );
+    for f in [
+        "ground_truth.tum",
+        "mcl.tum",
+        "odometry.tum",
+        "metrics.json",
+        "trajectory_mcl.svg",
+        "trajectory_mcl.png",
+    ] {
+        let p = dir.join(f);
+        assert!(
+            p.is_file() && std::fs::metadata(&p).unwrap().len() > 0,
+            "{f} missing"
+        );
+    }
+    let tum = std::fs::read_to_string(dir.join("mcl.tum")).unwrap();
+    let first: Vec<f64> = tum
+        .lines()
+        .next()
+        .unwrap()
+        .split(' ')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(first.len(), 8);
+    let png = std::fs::read(dir.join("trajectory_mcl.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn failed_expectation_exits_1() {
+    let p = variant("strict", "median_max = 0.2", "median_max = 0.0000001");
+    let o = atrium(&["run", p.to_str().unwrap()]);
+    let _ = std::fs::remove_file(&p);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("FAIL"));
+}
+
+fn assert_bad_input(o: &Output, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "{n:?} not in: {err}");
+    }
+}
+
+#[test]
+fn bad_scenarios_exit_2_naming_file_and_field() {
+    let cases = [
+        ("nan", "duration_s = 15.0", "duration_s = nan", "duration_s"),
+        (
+            "negative",
+            "duration_s = 15.0",
+            "duration_s = -1.0",
+            "duration_s",
+        ),
+        (
+            "inwall",
+            "pose = [2.0, 20.0, 0.0]",
+            "pose = [2.0, 18.95, 0.0]",
+            "start.pose",
+        ),
+        (
+            "waypoint",
+            "waypoints = [[8.0, 20.0]]",
+            "waypoints = [[8.0, 18.95]]",
+            "route.waypoints[0]",
+        ),
+        ("unknownkey", "seed = 3", "seed = 3\nsede = 4", "sede"),
+        (
+            "badparam",
+            "max_particles = 1000",
+            "max_particles = -5",
+            "localizers[mcl]",
+        ),
+        (
+            "kind",
+            "kind = \"mcl\"",
+            "kind = \"mlc\"",
+            "localizers[mcl].kind",
+        ),
+        (
+            "expect",
+            "median_max = 0.2",
+            "median_maxx = 0.2",
+            "expect.mcl.median_maxx",
+        ),
+        ("noworld", "campus.toml", "nowhere.toml", "nowhere.toml"),
+    ];
+    for (tag, from, to, field) in cases {
+        let p = variant(tag, from, to);
+        let o = atrium(&["run", p.to_str().unwrap()]);
+        let _ = std::fs::remove_file(&p);
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        let needle = if tag == "noworld" {
+            "nowhere.toml"
+        } else {
+            name.as_str()
+        };
+        assert_bad_input(&o, &[needle, field]);
+    }
+    let o = atrium(&["run", "/no/such/scenario.toml"]);
+    assert_bad_input(&o, &["/no/such/scenario.toml"]);
+}
+
+#[test]
+fn inspect_robot_reports_fixture_geometry() {
+    let urdf = repo("robots/tests/fixtures/turtlebot3_burger.urdf");
+    let o = atrium(&["inspect", "robot", urdf.to_str().unwrap(), "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!((j["wheel_radius"].as_f64().unwrap() - 0.033).abs() < 1e-3);
+    assert!((j["wheel_separation"].as_f64().unwrap() - 0.160).abs() < 1e-3);
+    assert_eq!(j["drive_joints"].as_array().unwrap().len(), 2);
+    assert!(j["links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|l| l["name"] == "base_scan"));
+    let text = atrium(&[
+        "inspect",
+        "robot",
+        repo("robots/urdf/pioneer3dx.urdf").to_str().unwrap(),
+    ]);
+    assert_eq!(text.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&text.stdout).contains("wheel_separation"));
+}
+
+#[test]
+fn bad_robot_and_world_files_exit_2() {
+    let dir = tmpdir("bad");
+    let xacro = dir.join("r.urdf.xacro");
+    std::fs::write(&xacro, r#"<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="r"><xacro:property name="a" value="1"/></robot>"#).unwrap();
+    assert_bad_input(
+        &atrium(&["inspect", "robot", xacro.to_str().unwrap()]),
+        &["r.urdf.xacro", "xacro"],
+    );
+    let broken = dir.join("broken.urdf");
+    std::fs::write(&broken, "<robot name=\"x\"><link name=\"a\">").unwrap();
+    assert_bad_input(
+        &atrium(&["inspect", "robot", broken.to_str().unwrap()]),
+        &["broken.urdf"],
+    );
+    assert_bad_input(
+        &atrium(&["inspect", "robot", "/no/such.urdf"]),
+        &["/no/such.urdf"],
+    );
+    let world = dir.join("w.toml");
+    std::fs::write(
+        &world,
+        "name = \"w\"\nceiling_height = 3.0\n[materials.concrete]\nlaser = \"opaque\"\n[[walls]]\npoints = [[0.0, 0.0], [1.0, 0.0]]\nthickness = -0.2\nmaterial = \"concrete\"\n",
+    )
+    .unwrap();
+    assert_bad_input(
+        &atrium(&["inspect", "world", world.to_str().unwrap()]),
+        &["w.toml", "walls[0].thickness"],
+    );
+    let ok = atrium(&[
+        "inspect",
+        "world",
+        repo("worlds/campus.toml").to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
+    let j: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
+    assert!(j["regions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|r| r["kind"] == "atrium"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
