@@ -24,6 +24,17 @@ pub fn bundled_scenarios_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
+/// The bundled scenario files (`scenarios/*.toml` beside this crate's manifest), sorted.
+pub fn bundled_scenarios() -> std::io::Result<Vec<std::path::PathBuf>> {
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(bundled_scenarios_dir())?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter(|p| p.file_name().is_some_and(|n| n != "Cargo.toml"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
 /// The scenario `atrium` runs with no arguments.
 pub fn default_scenario() -> std::path::PathBuf {
     bundled_scenarios_dir().join("tour.toml")

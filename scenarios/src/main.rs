@@ -38,6 +38,11 @@ enum Command {
         #[command(subcommand)]
         what: InspectWhat,
     },
+    /// Export the map a localizer may know.
+    Export {
+        #[command(subcommand)]
+        what: ExportWhat,
+    },
     /// Measure whole-run throughput on this machine.
     Bench {
         /// all, corridor_tracking or laser.
@@ -45,6 +50,25 @@ enum Command {
         what: String,
         #[arg(long)]
         json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum ExportWhat {
+    /// `--format ros`: a map_server YAML plus PGM (254 free, 0 occupied, 205 unknown);
+    /// `--format vector`: one `x1,y1,x2,y2` wall-face segment per line.
+    Map {
+        world: PathBuf,
+        #[arg(long, value_parser = ["ros", "vector"])]
+        format: String,
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
+        /// Keep glass walls in the map (a map built by a laser misses most of them).
+        #[arg(long)]
+        include_glass: bool,
+        /// Occupancy grid cell size, m (ros format).
+        #[arg(long, default_value_t = 0.05)]
+        resolution: f64,
     },
 }
 
@@ -151,6 +175,24 @@ fn main_inner(cli: Cli) -> Result<bool, BadInput> {
                 print_json(&inspect::world_json(&w))?;
             } else {
                 print!("{}", inspect::world_text(&w));
+            }
+            Ok(true)
+        }
+        Some(Command::Export {
+            what:
+                ExportWhat::Map {
+                    world,
+                    format,
+                    output,
+                    include_glass,
+                    resolution,
+                },
+        }) => {
+            let w = atrium_worlds::World::load(&world)?;
+            let written = output::export_map(&w, &format, &output, include_glass, resolution)
+                .map_err(anyhow::Error::msg)?;
+            for p in written {
+                eprintln!("wrote {}", p.display());
             }
             Ok(true)
         }

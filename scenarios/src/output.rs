@@ -65,6 +65,39 @@ pub fn write_run(
     Ok(written)
 }
 
+/// Writes the map of `world` a localizer may know: `format` "ros" gives `output` (YAML) and a
+/// PGM beside it with the same stem; "vector" gives one `x1,y1,x2,y2` segment per line.
+pub fn export_map(
+    world: &atrium_worlds::World,
+    format: &str,
+    output: &Path,
+    include_glass: bool,
+    resolution: f64,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    let fail = |e: std::io::Error| format!("{}: {e}", output.display());
+    match format {
+        "ros" => {
+            let grid = world
+                .try_occupancy_grid(resolution, include_glass)
+                .map_err(|e| format!("--resolution: {e}"))?;
+            let pgm = output.with_extension("pgm");
+            let image = pgm
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .ok_or_else(|| format!("{}: not a file path", output.display()))?;
+            write_atomic(&pgm, &grid.to_pgm()).map_err(fail)?;
+            write_atomic(output, grid.ros_yaml(&image).as_bytes()).map_err(fail)?;
+            Ok(vec![output.to_path_buf(), pgm])
+        }
+        "vector" => {
+            write_atomic(output, world.vector_map(include_glass).to_text().as_bytes())
+                .map_err(fail)?;
+            Ok(vec![output.to_path_buf()])
+        }
+        other => Err(format!("--format: unknown format {other:?} (ros, vector)")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

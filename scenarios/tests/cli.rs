@@ -268,3 +268,66 @@ fn bad_robot_and_world_files_exit_2() {
         .any(|r| r["kind"] == "atrium"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn export_map_writes_ros_and_vector_maps_with_glass_optional() {
+    let dir = tmpdir("export");
+    let world = repo("worlds/campus.toml");
+    let yaml = dir.join("campus.yaml");
+    let o = atrium(&[
+        "export",
+        "map",
+        world.to_str().unwrap(),
+        "--format",
+        "ros",
+        "-o",
+        yaml.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let y = std::fs::read_to_string(&yaml).unwrap();
+    for key in [
+        "image:",
+        "resolution:",
+        "origin:",
+        "negate:",
+        "occupied_thresh:",
+        "free_thresh:",
+    ] {
+        assert!(y.contains(key), "{key} missing in {y}");
+    }
+    let pgm = std::fs::read(dir.join("campus.pgm")).unwrap();
+    assert_eq!(&pgm[..2], b"P5");
+    let count = |with_glass: bool| {
+        let out = dir.join(format!("v{with_glass}.txt"));
+        let mut args = vec![
+            "export",
+            "map",
+            world.to_str().unwrap(),
+            "--format",
+            "vector",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        if with_glass {
+            args.push("--include-glass");
+        }
+        assert_eq!(atrium(&args).status.code(), Some(0));
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(text.lines().all(|l| l.split(',').count() == 4), "{text}");
+        text.lines().count()
+    };
+    assert!(count(true) > count(false), "glass walls must add segments");
+    let bad = atrium(&[
+        "export",
+        "map",
+        world.to_str().unwrap(),
+        "--format",
+        "ros",
+        "--resolution",
+        "0",
+        "-o",
+        yaml.to_str().unwrap(),
+    ]);
+    assert_bad_input(&bad, &["resolution"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -6,14 +6,7 @@ use libtest_mimic::{Arguments, Failed, Trial};
 use std::path::{Path, PathBuf};
 
 fn scenario_files() -> Vec<PathBuf> {
-    let dir = atrium_scenarios::bundled_scenarios_dir();
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
-    files
+    atrium_scenarios::bundled_scenarios().expect("read the bundled scenarios folder")
 }
 
 fn has_expectations(path: &Path) -> bool {
@@ -41,16 +34,28 @@ fn run_one(path: &Path) -> Result<(), Failed> {
 
 fn main() {
     let args = Arguments::from_args();
-    let trials = scenario_files()
-        .into_iter()
-        .filter(|p| has_expectations(p))
+    let files = scenario_files();
+    assert!(!files.is_empty(), "no bundled scenarios found");
+    let stem = |p: &Path| {
+        p.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    // Every bundled scenario must at least load and validate, expectations or not.
+    let mut trials: Vec<Trial> = files
+        .iter()
         .map(|p| {
-            let name = p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            Trial::test(format!("scenario::{name}"), move || run_one(&p))
+            let p = p.clone();
+            Trial::test(format!("loads::{}", stem(&p)), move || {
+                Scenario::load(&p)
+                    .map(|_| ())
+                    .map_err(|e| Failed::from(e.to_string()))
+            })
         })
         .collect();
+    trials.extend(files.into_iter().filter(|p| has_expectations(p)).map(|p| {
+        let name = stem(&p);
+        Trial::test(format!("scenario::{name}"), move || run_one(&p))
+    }));
     libtest_mimic::run(&args, trials).exit();
 }
