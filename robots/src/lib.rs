@@ -15,5 +15,8 @@ pub use diff_drive::DiffDrive;
 pub use error::RobotError;
 pub use model::{Caster, LinkMount, RobotModel, Shape, ShapeInstance, Wheel};
 pub use pose::{normalize_angle, Pose2};
-pub use readings::{LaserScan, Reading, WheelOdometry};
+pub use readings::{
+    DepthImage, LandmarkDetection, LandmarkDetections, LaserScan, Mount3, Reading, WheelOdometry,
+    WifiReading, WifiScan,
+};
 pub use sensors::{LaserSpec, OdometrySpec, RobotSensors};

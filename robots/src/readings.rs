@@ -37,12 +37,90 @@ pub struct WheelOdometry {
     pub right_ticks: i64,
 }
 
+/// A sensor's pose in the robot's base frame in 3D: position (m) and URDF roll, pitch, yaw
+/// (rad, R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Mount3 {
+    pub xyz: [f64; 3],
+    pub rpy: [f64; 3],
+}
+
+impl Mount3 {
+    pub fn to_isometry(&self) -> nalgebra::Isometry3<f64> {
+        let [r, p, y] = self.rpy;
+        nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
+            nalgebra::UnitQuaternion::from_euler_angles(r, p, y),
+        )
+    }
+}
+
+/// A depth image from a pinhole camera whose optical frame looks along the mount's +x
+/// (REP-103 body convention: x forward, y left, z up). Pixel (u, v) is column u from the
+/// left, row v from the top; `depth[v * width + u]` is the distance along the optical axis
+/// (metres), 0 where the pixel is invalid (out of range, glass, grazing incidence).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DepthImage {
+    pub stamp: f64,
+    pub sensor: String,
+    pub mount: Mount3,
+    pub width: usize,
+    pub height: usize,
+    /// Pinhole intrinsics in pixels: focal lengths and principal point.
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    pub depth: Vec<f32>,
+}
+
+/// One access point heard in a WiFi scan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WifiReading {
+    /// Access point name (or BSSID) as the world names it.
+    pub ap: String,
+    pub channel: u32,
+    /// Received signal strength, dBm.
+    pub rssi_dbm: f64,
+}
+
+/// A WiFi scan: the access points heard (those below the sensitivity cut-off are absent).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WifiScan {
+    pub stamp: f64,
+    pub sensor: String,
+    pub readings: Vec<WifiReading>,
+}
+
+/// A range-bearing detection of a point feature (a pillar's centre).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkDetection {
+    pub range: f64,
+    /// Radians, counter-clockwise from the sensor's +x.
+    pub bearing: f64,
+    /// The feature's identity when data association is known; None when the localizer must
+    /// associate it itself.
+    pub id: Option<usize>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkDetections {
+    pub stamp: f64,
+    pub sensor: String,
+    /// The detector's frame in the base frame (floor plane).
+    pub mount: Pose2,
+    pub detections: Vec<LandmarkDetection>,
+}
+
 /// Every kind of reading, in one time-ordered stream.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum Reading {
     Odometry(WheelOdometry),
     Laser(LaserScan),
+    Depth(DepthImage),
+    Wifi(WifiScan),
+    Landmarks(LandmarkDetections),
 }
 
 impl Reading {
@@ -50,6 +128,9 @@ impl Reading {
         match self {
             Reading::Odometry(o) => o.stamp,
             Reading::Laser(l) => l.stamp,
+            Reading::Depth(d) => d.stamp,
+            Reading::Wifi(w) => w.stamp,
+            Reading::Landmarks(l) => l.stamp,
         }
     }
 }

@@ -401,7 +401,7 @@ impl Default for OdometrySpec {
 }
 
 /// The contents of a robot's sensor file.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct RobotSensors {
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,

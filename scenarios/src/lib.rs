@@ -6,6 +6,7 @@ pub mod bench;
 pub mod error;
 pub mod expect;
 pub mod inspect;
+pub mod localizers;
 pub mod metrics;
 pub mod output;
 pub mod plot;

@@ -3,17 +3,13 @@
 
 use crate::error::ScenarioError;
 use crate::expect::{self, ExpectationResult, MetricSource};
+use crate::localizers::{build_localizer, SharedMaps};
 use crate::metrics::{self, LocalizerMetrics, Sample};
-use crate::scenario::{Event, InitialBelief, LocalizerSpec, Scenario};
+use crate::scenario::{Event, Scenario};
 use crate::seeds::derive_seed;
-use atrium_localization::{
-    dead_reckoning::DeadReckoning,
-    mcl::{InitialBelief as MclBelief, Mcl, MclParams},
-    Localizer, OdometryDelta,
-};
+use atrium_localization::OdometryDelta;
 use atrium_robots::{Pose2, Reading};
 use atrium_sim::Simulation;
-use atrium_worlds::OccupancyGrid;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -81,58 +77,6 @@ impl RunResult {
     }
 }
 
-fn build_localizer(
-    spec: &LocalizerSpec,
-    scenario: &Scenario,
-    grid: &mut Option<OccupancyGrid>,
-    seed: u64,
-) -> Result<Box<dyn Localizer>, ScenarioError> {
-    let file = &scenario.file;
-    let field = format!("localizers[{}]", spec.name);
-    match spec.kind.as_str() {
-        "dead_reckoning" => {
-            if let Some(k) = spec.params.keys().next() {
-                return Err(ScenarioError::field(
-                    file,
-                    format!("{field}.{k}"),
-                    "dead_reckoning takes no parameters",
-                ));
-            }
-            Ok(Box::new(DeadReckoning::new(&spec.name, scenario.start)))
-        }
-        "mcl" => {
-            let params: MclParams = toml::Value::Table(spec.params.clone()).try_into().map_err(
-                |e: toml::de::Error| ScenarioError::field(file, &field, e.message().to_string()),
-            )?;
-            params
-                .validate()
-                .map_err(|msg| ScenarioError::field(file, &field, msg))?;
-            let grid = grid.get_or_insert_with(|| {
-                scenario
-                    .world
-                    .occupancy_grid(scenario.map.resolution, scenario.map.include_glass)
-            });
-            let init = match &scenario.initial_belief {
-                InitialBelief::Tracking { sigma } => MclBelief::Tracking {
-                    pose: scenario.start,
-                    sigma: *sigma,
-                },
-                InitialBelief::Global { polygons } => MclBelief::Global {
-                    regions: polygons.clone(),
-                },
-            };
-            let mcl = Mcl::new(&spec.name, params, grid, init, seed)
-                .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
-            Ok(Box::new(mcl))
-        }
-        other => Err(ScenarioError::field(
-            file,
-            format!("{field}.kind"),
-            format!("unknown localizer kind {other:?} (known: mcl, dead_reckoning)"),
-        )),
-    }
-}
-
 /// NEES over (x, y) when the covariance is usable.
 fn nees_xy(err: [f64; 2], cov: &nalgebra::Matrix3<f64>) -> Option<f64> {
     let (a, b, c) = (cov[(0, 0)], cov[(0, 1)], cov[(1, 1)]);
@@ -157,15 +101,11 @@ pub fn run_scenario(
         .map_err(|e| ScenarioError::field(file, "start.pose", e.to_string()))?;
     sim.set_route(&scenario.waypoints);
 
-    let mut grid = None;
+    let mut maps = SharedMaps::default();
     let mut localizers = Vec::with_capacity(scenario.localizers.len());
     for spec in &scenario.localizers {
-        localizers.push(build_localizer(
-            spec,
-            scenario,
-            &mut grid,
-            derive_seed(seed, &format!("localizer/{}", spec.name)),
-        )?);
+        let loc_seed = derive_seed(seed, &format!("localizer/{}", spec.name));
+        localizers.push(build_localizer(spec, scenario, &mut maps, loc_seed)?);
     }
     let n = localizers.len();
     let mut trajectories: Vec<Vec<(f64, Pose2)>> = vec![Vec::new(); n];

@@ -328,10 +328,7 @@ impl Scenario {
         let robot_sensors = if sensor_file.exists() {
             RobotSensors::load(&sensor_file)?
         } else {
-            RobotSensors {
-                odometry: OdometrySpec::default(),
-                lasers: Vec::new(),
-            }
+            RobotSensors::default()
         };
         let odometry = match &raw.odometry {
             Some(t) => apply_overrides(&robot_sensors.odometry, t, file, "odometry")?,
@@ -577,6 +574,8 @@ impl Scenario {
 
     /// The simulator's configuration for this scenario, with the simulator's random stream
     /// `seed`.
+    // The struct update keeps this compiling while sensors are added to SimConfig.
+    #[allow(clippy::needless_update)]
     pub fn sim_config(&self, seed: u64) -> atrium_sim::SimConfig {
         atrium_sim::SimConfig {
             physics_hz: self.physics_hz,
@@ -585,6 +584,7 @@ impl Scenario {
             lasers: self.lasers.clone(),
             controller: self.controller,
             seed,
+            ..atrium_sim::SimConfig::default()
         }
     }
 }
