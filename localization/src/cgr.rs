@@ -1,0 +1,835 @@
+//! Corrective Gradient Refinement (CGR): 004_5bf198ec52fcbc0c.txt §2.1 (after Biswas, Coltin
+//! & Veloso, IROS 2011), on the world's vector map, for a laser rangefinder and, through FSPF
+//! (§2.2, Algorithm 1), for a depth camera. Per observation:
+//!
+//! 1. every particle of Bel(x_{t−1}) goes through the odometry motion model: proposal q⁰;
+//! 2. each sample is refined in `refinements` (r) iterations along the gradient of the
+//!    observation log-likelihood: q¹ … qʳ;
+//! 3. an acceptance test chooses, per particle, between its refined sample (qʳ) and its
+//!    unrefined one (q⁰);
+//! 4. the chosen samples are weighted by the observation likelihood and resampled
+//!    (low-variance) into Bel(x_t).
+//!
+//! Observation model: the observed points (laser endpoints, or FSPF points of vertical planes
+//! projected to the floor) are matched to their nearest map segment (point-to-line
+//! correspondences; for depth points only segments whose normal agrees with the point's plane
+//! normal); each residual d scores log(exp(−d²/2σ²) + ε_out), ε_out = exp(−k²/2) for
+//! `outlier_sigmas` = k, so that unmapped clutter (furniture, people) costs a bounded amount.
+//! Its gradient with respect to (x, y, θ) is analytic.
+//!
+//! Two choices the paper leaves open, made here:
+//! - the refinement step is the gradient scaled per coordinate by the inverse diagonal of the
+//!   Gauss–Newton curvature (a Jacobi preconditioner: metres and radians need different step
+//!   sizes), times `step`, damped so that a direction no point constrains does not move;
+//! - the acceptance test is a Metropolis–Hastings test on the unnormalised posterior:
+//!   accept qʳ with probability min(1, p(y|qʳ) π(qʳ) / (p(y|q⁰) π(q⁰))), π being the motion
+//!   model as a Gaussian around the odometry prediction whose standard deviations are at
+//!   least `accept_sigma_xy` / `accept_sigma_theta` (slip the odometry model cannot see). A
+//!   refinement that pulls a sample somewhere the motion cannot explain is refused.
+
+use crate::error::LocalizationError;
+use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
+use crate::line_map::LineMap;
+use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::resampling::low_variance_indices;
+use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
+use atrium_worlds::VectorMap;
+use nalgebra::Matrix3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+const PARTICLE_LIMIT: usize = 1_000_000;
+
+/// CGR parameters, as written in a scenario file. Every field has a default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CgrParams {
+    /// Number of particles (fixed). Default 500.
+    pub particles: usize,
+    /// Odometry motion model α1–α4 (see [`OdometryMotionModel`]). Default 0.05 each.
+    pub alpha: [f64; 4],
+    /// r: gradient refinement iterations per sample. Default 3.
+    pub refinements: usize,
+    /// Fraction of the preconditioned gradient step taken per iteration, (0, 1]. Default 0.5.
+    pub step: f64,
+    /// Standard deviation of a point's distance to its map line, m. Default 0.05.
+    pub sigma: f64,
+    /// Residuals beyond this many σ count as outliers (bounded cost). Default 3.
+    pub outlier_sigmas: f64,
+    /// Farthest a point may be from a map segment to correspond to it, m. Default 0.5.
+    pub max_correspondence: f64,
+    /// Points used per observation, evenly spread over the available ones. Default 60.
+    pub max_points: usize,
+    /// Floor of the motion model's position standard deviation in the acceptance test, m.
+    /// Default 0.02.
+    pub accept_sigma_xy: f64,
+    /// Floor of the motion model's heading standard deviation in the acceptance test, rad.
+    /// Default 0.02.
+    pub accept_sigma_theta: f64,
+    /// Cell size of the correspondence grid, m. Default 0.1.
+    pub map_resolution: f64,
+    /// Depth only: FSPF parameters (Table 1 defaults). Scale `eta` with the camera's
+    /// decimation.
+    pub fspf: FspfParams,
+    /// Depth only: a plane is vertical when |normal_z| <= this in the base frame. Default 0.2
+    /// (about 11.5° from vertical).
+    pub max_normal_z: f64,
+    /// Depth only: a point may correspond to a map segment whose normal is within this angle
+    /// of its plane's normal, degrees. Default 30.
+    pub normal_tolerance_deg: f64,
+}
+
+impl Default for CgrParams {
+    fn default() -> Self {
+        Self {
+            particles: 500,
+            alpha: [0.05; 4],
+            refinements: 3,
+            step: 0.5,
+            sigma: 0.05,
+            outlier_sigmas: 3.0,
+            max_correspondence: 0.5,
+            max_points: 60,
+            accept_sigma_xy: 0.02,
+            accept_sigma_theta: 0.02,
+            map_resolution: 0.1,
+            fspf: FspfParams::default(),
+            max_normal_z: 0.2,
+            normal_tolerance_deg: 30.0,
+        }
+    }
+}
+
+impl CgrParams {
+    /// Checks every field; the message names the field and the value.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite and > 0, got {v}"))
+            }
+        };
+        if !(1..=PARTICLE_LIMIT).contains(&self.particles) {
+            return Err(format!(
+                "particles must be in 1..={PARTICLE_LIMIT}, got {}",
+                self.particles
+            ));
+        }
+        for (i, a) in self.alpha.iter().enumerate() {
+            if !(a.is_finite() && *a >= 0.0) {
+                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
+            }
+        }
+        if self.refinements > 100 {
+            return Err(format!(
+                "refinements must be <= 100, got {}",
+                self.refinements
+            ));
+        }
+        if !(self.step > 0.0 && self.step <= 1.0) {
+            return Err(format!("step must be in (0, 1], got {}", self.step));
+        }
+        positive("sigma", self.sigma)?;
+        positive("outlier_sigmas", self.outlier_sigmas)?;
+        positive("max_correspondence", self.max_correspondence)?;
+        if self.max_points < 3 {
+            return Err(format!("max_points must be >= 3, got {}", self.max_points));
+        }
+        positive("accept_sigma_xy", self.accept_sigma_xy)?;
+        positive("accept_sigma_theta", self.accept_sigma_theta)?;
+        positive("map_resolution", self.map_resolution)?;
+        self.fspf.validate().map_err(|m| format!("fspf.{m}"))?;
+        if !(self.max_normal_z.is_finite() && (0.0..1.0).contains(&self.max_normal_z)) {
+            return Err(format!(
+                "max_normal_z must be in [0, 1), got {}",
+                self.max_normal_z
+            ));
+        }
+        if !(self.normal_tolerance_deg > 0.0 && self.normal_tolerance_deg <= 90.0) {
+            return Err(format!(
+                "normal_tolerance_deg must be in (0, 90], got {}",
+                self.normal_tolerance_deg
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What a CGR localizer observes.
+#[derive(Debug, Clone)]
+enum Source {
+    Laser,
+    Depth {
+        fspf: Box<PlaneFilter>,
+        /// Vertical-plane points on the floor and their normals, base frame.
+        points: Vec<[f64; 2]>,
+        normals: Vec<[f64; 2]>,
+        min_cos: f64,
+    },
+}
+
+/// Log-likelihood of a pose and its gradient and Gauss–Newton diagonal.
+#[derive(Debug, Clone, Copy, Default)]
+struct Eval {
+    loglik: f64,
+    grad: [f64; 3],
+    hdiag: [f64; 3],
+}
+
+/// A CGR particle filter on a vector map.
+#[derive(Debug, Clone)]
+pub struct Cgr {
+    name: String,
+    params: CgrParams,
+    map: LineMap,
+    motion: OdometryMotionModel,
+    rng: ChaCha8Rng,
+    source: Source,
+    n: usize,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    th: Vec<f64>,
+    w: Vec<f64>,
+    logw: Vec<f64>,
+    x2: Vec<f64>,
+    y2: Vec<f64>,
+    th2: Vec<f64>,
+    idx: Vec<usize>,
+    /// Observed points in the base frame and (depth) their unit normals.
+    obs: Vec<[f64; 2]>,
+    obs_normals: Vec<[f64; 2]>,
+    pending: Pose2,
+    stamp: f64,
+    mean: Pose2,
+    covariance: Matrix3<f64>,
+    /// Refined samples accepted / offered, over the whole run.
+    accepted: u64,
+    offered: u64,
+}
+
+impl Cgr {
+    /// A CGR localizer fed by laser scans (every `Reading::Laser`).
+    pub fn laser(
+        name: &str,
+        params: CgrParams,
+        map: &VectorMap,
+        start: Pose2,
+        sigma: [f64; 3],
+        seed: u64,
+    ) -> Result<Cgr, LocalizationError> {
+        Self::new(name, params, map, start, sigma, seed, false)
+    }
+
+    /// A CGR localizer fed by depth images (every `Reading::Depth`) through FSPF.
+    pub fn depth(
+        name: &str,
+        params: CgrParams,
+        map: &VectorMap,
+        start: Pose2,
+        sigma: [f64; 3],
+        seed: u64,
+    ) -> Result<Cgr, LocalizationError> {
+        Self::new(name, params, map, start, sigma, seed, true)
+    }
+
+    fn new(
+        name: &str,
+        params: CgrParams,
+        map: &VectorMap,
+        start: Pose2,
+        sigma: [f64; 3],
+        seed: u64,
+        depth: bool,
+    ) -> Result<Cgr, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        if !start.is_finite() {
+            return Err(LocalizationError::belief(
+                "pose",
+                format!("must be finite, got {start:?}"),
+            ));
+        }
+        if sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+            return Err(LocalizationError::belief(
+                "sigma",
+                format!("must be finite and >= 0, got {sigma:?}"),
+            ));
+        }
+        let line_map = LineMap::new(map, params.map_resolution, params.max_correspondence)?;
+        let source = if depth {
+            Source::Depth {
+                // The plane filter draws from its own stream, so FSPF's sampling never shifts
+                // the particle filter's.
+                fspf: Box::new(PlaneFilter::new(params.fspf, seed ^ 0x5f5f_5f5f_5f5f_5f5f)?),
+                points: Vec::with_capacity(params.fspf.n_max + params.fspf.l),
+                normals: Vec::with_capacity(params.fspf.n_max + params.fspf.l),
+                min_cos: params.normal_tolerance_deg.to_radians().cos(),
+            }
+        } else {
+            Source::Laser
+        };
+        let m = params.particles;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut x, mut y, mut th) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
+        for i in 0..m {
+            let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+            x[i] = start.x + sigma[0] * g();
+            y[i] = start.y + sigma[1] * g();
+            th[i] = normalize_angle(start.theta + sigma[2] * g());
+        }
+        let mut cgr = Cgr {
+            name: name.to_owned(),
+            motion: OdometryMotionModel::new(params.alpha),
+            map: line_map,
+            rng,
+            source,
+            n: m,
+            x,
+            y,
+            th,
+            w: vec![1.0 / m as f64; m],
+            logw: vec![0.0; m],
+            x2: vec![0.0; m],
+            y2: vec![0.0; m],
+            th2: vec![0.0; m],
+            idx: vec![0; m],
+            obs: Vec::with_capacity(params.max_points),
+            obs_normals: Vec::with_capacity(params.max_points),
+            pending: Pose2::default(),
+            stamp: 0.0,
+            mean: start,
+            covariance: Matrix3::zeros(),
+            accepted: 0,
+            offered: 0,
+            params,
+        };
+        cgr.compute_estimate();
+        Ok(cgr)
+    }
+
+    pub fn params(&self) -> &CgrParams {
+        &self.params
+    }
+
+    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
+        (0..self.n).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+    }
+
+    /// Fraction of refined samples the acceptance test kept, over the run so far.
+    pub fn acceptance_rate(&self) -> f64 {
+        if self.offered == 0 {
+            0.0
+        } else {
+            self.accepted as f64 / self.offered as f64
+        }
+    }
+
+    /// Sets the observation to `points` (base frame) and, for depth, their normals; used by
+    /// tests and by callers that extract points themselves.
+    pub fn set_observation(&mut self, points: &[[f64; 2]], normals: Option<&[[f64; 2]]>) {
+        self.obs.clear();
+        self.obs_normals.clear();
+        self.obs.extend_from_slice(points);
+        if let Some(n) = normals {
+            self.obs_normals.extend_from_slice(n);
+        }
+    }
+
+    /// The observation log-likelihood of `pose` for the current observation.
+    pub fn log_likelihood(&self, pose: &Pose2) -> f64 {
+        self.evaluate(pose.x, pose.y, pose.theta).loglik
+    }
+
+    /// `r` refinement iterations of `pose` on the current observation (step 2 alone).
+    pub fn refine(&self, pose: &Pose2, r: usize) -> Pose2 {
+        let (mut x, mut y, mut th) = (pose.x, pose.y, pose.theta);
+        let mut e = self.evaluate(x, y, th);
+        for _ in 0..r {
+            let d = self.refinement_step(&e);
+            x += d[0];
+            y += d[1];
+            th = normalize_angle(th + d[2]);
+            e = self.evaluate(x, y, th);
+        }
+        Pose2::new(x, y, th)
+    }
+
+    /// Log-likelihood, gradient and Gauss–Newton diagonal of the current observation at
+    /// (x, y, θ). Allocation-free.
+    fn evaluate(&self, px: f64, py: f64, th: f64) -> Eval {
+        let sigma2 = self.params.sigma * self.params.sigma;
+        let k = self.params.outlier_sigmas;
+        let eps_out = (-0.5 * k * k).exp();
+        let norm = (1.0 + eps_out).ln();
+        let outlier = eps_out.ln() - norm;
+        let (s, c) = th.sin_cos();
+        let min_cos = match &self.source {
+            Source::Depth { min_cos, .. } => *min_cos,
+            Source::Laser => 0.0,
+        };
+        let with_normals = self.obs_normals.len() == self.obs.len();
+        let lines = self.map.lines();
+        let mut e = Eval::default();
+        for (i, q) in self.obs.iter().enumerate() {
+            let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
+            let constraint = if with_normals {
+                let n = self.obs_normals[i];
+                Some(([c * n[0] - s * n[1], s * n[0] + c * n[1]], min_cos))
+            } else {
+                None
+            };
+            let Some((id, d)) = self.map.nearest(p, constraint) else {
+                e.loglik += outlier;
+                continue;
+            };
+            let l = &lines[id];
+            // Residual vector from the closest point of the segment to p.
+            let t = ((p[0] - l.a[0]) * l.dir[0] + (p[1] - l.a[1]) * l.dir[1]).clamp(0.0, l.length);
+            let r = [
+                p[0] - (l.a[0] + t * l.dir[0]),
+                p[1] - (l.a[1] + t * l.dir[1]),
+            ];
+            let g = (-0.5 * d * d / sigma2).exp();
+            e.loglik += (g + eps_out).ln() - norm;
+            // d/dpose of ½d²: r·∂p; the mixture weights it by g / (g + ε_out).
+            let omega = g / (g + eps_out) / sigma2;
+            let dp_dth = [-s * q[0] - c * q[1], c * q[0] - s * q[1]];
+            e.grad[0] -= omega * r[0];
+            e.grad[1] -= omega * r[1];
+            e.grad[2] -= omega * (r[0] * dp_dth[0] + r[1] * dp_dth[1]);
+            let u = if d > 1e-9 {
+                [r[0] / d, r[1] / d]
+            } else {
+                l.normal
+            };
+            let j_th = u[0] * dp_dth[0] + u[1] * dp_dth[1];
+            e.hdiag[0] += omega * u[0] * u[0];
+            e.hdiag[1] += omega * u[1] * u[1];
+            e.hdiag[2] += omega * j_th * j_th;
+        }
+        e
+    }
+
+    /// One refinement step from an evaluation: the gradient preconditioned by the damped
+    /// Gauss–Newton diagonal, times `step`, clamped to half the correspondence distance
+    /// (and 0.1 rad) so a step never jumps to other walls.
+    fn refinement_step(&self, e: &Eval) -> [f64; 3] {
+        let sigma2 = self.params.sigma * self.params.sigma;
+        // Damping: as if 5 % of the points constrained every coordinate with a 1 m lever.
+        let damping = 0.05 * self.obs.len().max(1) as f64 / sigma2;
+        let lim = 0.5 * self.params.max_correspondence;
+        let mut d: [f64; 3] =
+            std::array::from_fn(|k| self.params.step * e.grad[k] / (e.hdiag[k] + damping));
+        d[0] = d[0].clamp(-lim, lim);
+        d[1] = d[1].clamp(-lim, lim);
+        d[2] = d[2].clamp(-0.1, 0.1);
+        d
+    }
+
+    /// Laser endpoints in the base frame: up to max_points valid beams, evenly spread.
+    fn observe_laser(&mut self, scan: &LaserScan) {
+        self.obs.clear();
+        self.obs_normals.clear();
+        let valid = |r: f64| r.is_finite() && r >= scan.range_min && r < scan.range_max;
+        let n_valid = scan.ranges.iter().filter(|r| valid(**r)).count();
+        if n_valid == 0 {
+            return;
+        }
+        let m = self.params.max_points.min(n_valid);
+        let (mut taken, mut next, mut v) = (0usize, 0usize, 0usize);
+        for (i, &r) in scan.ranges.iter().enumerate() {
+            if !valid(r) {
+                continue;
+            }
+            if v == next {
+                let a = scan.beam_angle(i);
+                self.obs
+                    .push(scan.mount.transform_point([r * a.cos(), r * a.sin()]));
+                taken += 1;
+                if taken == m {
+                    break;
+                }
+                next = taken * n_valid / m;
+            }
+            v += 1;
+        }
+    }
+
+    /// FSPF on the image, vertical planes projected to the floor, then up to max_points of
+    /// them evenly spread (FSPF's output order is already random).
+    fn observe_depth(&mut self, img: &DepthImage) -> Result<(), LocalizationError> {
+        self.obs.clear();
+        self.obs_normals.clear();
+        let max_normal_z = self.params.max_normal_z;
+        let Source::Depth {
+            fspf,
+            points,
+            normals,
+            ..
+        } = &mut self.source
+        else {
+            return Ok(());
+        };
+        let mount = img.mount.to_isometry();
+        let filtered = fspf.filter(img)?;
+        vertical_planes_on_floor(&filtered, &mount, max_normal_z, points, normals);
+        let n = points.len();
+        let m = self.params.max_points.min(n);
+        for k in 0..m {
+            let i = k * n / m;
+            self.obs.push(points[i]);
+            self.obs_normals.push(normals[i]);
+        }
+        Ok(())
+    }
+
+    /// Steps 1–4 of CGR on the current observation.
+    fn cgr_update(&mut self) {
+        let p = self.pending;
+        self.pending = Pose2::default();
+        let moved = p.x != 0.0 || p.y != 0.0 || p.theta != 0.0;
+        let inc = self.motion.decompose(&Pose2::default(), &p);
+        // The motion model as a Gaussian in the frame of each particle's odometry prediction,
+        // for the acceptance test.
+        let sd_along = inc.sd_trans.max(self.params.accept_sigma_xy);
+        let sd_lateral = (inc.trans.abs() * inc.sd_rot1).max(self.params.accept_sigma_xy);
+        let sd_theta = inc
+            .sd_rot1
+            .hypot(inc.sd_rot2)
+            .max(self.params.accept_sigma_theta);
+        let motion_log = |mu: &Pose2, q: &Pose2| {
+            let rel = mu.between(q);
+            -0.5 * ((rel.x / sd_along).powi(2)
+                + (rel.y / sd_lateral).powi(2)
+                + (rel.theta / sd_theta).powi(2))
+        };
+        let have_obs = self.obs.len() >= 3;
+        let r = self.params.refinements;
+        for i in 0..self.n {
+            let prev = Pose2::new(self.x[i], self.y[i], self.th[i]);
+            // Step 1: q⁰ from the motion model.
+            let q0 = if moved {
+                let (x, y, th) = apply_increment(prev.x, prev.y, prev.theta, &inc, &mut self.rng);
+                Pose2::new(x, y, th)
+            } else {
+                prev
+            };
+            if !have_obs {
+                (self.x[i], self.y[i], self.th[i]) = (q0.x, q0.y, q0.theta);
+                continue;
+            }
+            // Step 2: r refinement iterations.
+            let e0 = self.evaluate(q0.x, q0.y, q0.theta);
+            let (mut cx, mut cy, mut ct) = (q0.x, q0.y, q0.theta);
+            let mut e = e0;
+            for _ in 0..r {
+                let d = self.refinement_step(&e);
+                if d[0].abs() < 1e-6 && d[1].abs() < 1e-6 && d[2].abs() < 1e-7 {
+                    break;
+                }
+                cx += d[0];
+                cy += d[1];
+                ct = normalize_angle(ct + d[2]);
+                e = self.evaluate(cx, cy, ct);
+            }
+            let qr = Pose2::new(cx, cy, ct);
+            // Step 3: acceptance test between qʳ and q⁰.
+            let mu = if moved { prev.compose(&p) } else { prev };
+            let log_alpha = (e.loglik + motion_log(&mu, &qr)) - (e0.loglik + motion_log(&mu, &q0));
+            self.offered += 1;
+            let u: f64 = self.rng.random();
+            let (chosen, ll) = if log_alpha >= 0.0 || u.ln() < log_alpha {
+                self.accepted += 1;
+                (qr, e.loglik)
+            } else {
+                (q0, e0.loglik)
+            };
+            (self.x[i], self.y[i], self.th[i]) = (chosen.x, chosen.y, chosen.theta);
+            self.logw[i] = ll;
+        }
+        if !have_obs {
+            return;
+        }
+        // Step 4: importance weights (normalised in log space) and resampling.
+        let n = self.n;
+        let max = self.logw[..n]
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
+        for i in 0..n {
+            let w = (self.logw[i] - max).exp();
+            self.w[i] = w;
+            sum += w;
+        }
+        for w in &mut self.w[..n] {
+            *w /= sum;
+        }
+        self.compute_estimate();
+        if !low_variance_indices(&self.w[..n], &mut self.idx[..n], &mut self.rng) {
+            return;
+        }
+        for k in 0..n {
+            let i = self.idx[k];
+            self.x2[k] = self.x[i];
+            self.y2[k] = self.y[i];
+            self.th2[k] = self.th[i];
+        }
+        std::mem::swap(&mut self.x, &mut self.x2);
+        std::mem::swap(&mut self.y, &mut self.y2);
+        std::mem::swap(&mut self.th, &mut self.th2);
+        self.w[..n].fill(1.0 / n as f64);
+    }
+
+    /// Weighted mean (circular for θ) and covariance of the current set.
+    fn compute_estimate(&mut self) {
+        let n = self.n;
+        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let w = self.w[i];
+            mx += w * self.x[i];
+            my += w * self.y[i];
+            let (s, c) = self.th[i].sin_cos();
+            ms += w * s;
+            mc += w * c;
+        }
+        let mt = ms.atan2(mc);
+        let mut cov = Matrix3::zeros();
+        for i in 0..n {
+            let d = nalgebra::Vector3::new(
+                self.x[i] - mx,
+                self.y[i] - my,
+                normalize_angle(self.th[i] - mt),
+            );
+            cov += self.w[i] * d * d.transpose();
+        }
+        self.mean = Pose2::new(mx, my, mt);
+        self.covariance = cov;
+    }
+}
+
+impl Localizer for Cgr {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Accumulates odometry; the motion model runs at the next observation (step 1).
+    fn predict(&mut self, delta: &OdometryDelta) {
+        if !delta.from.is_finite() || !delta.to.is_finite() {
+            return;
+        }
+        self.pending = self.pending.compose(&delta.from.between(&delta.to));
+        self.stamp = self.stamp.max(delta.stamp);
+    }
+
+    /// Laser scans for a laser CGR, depth images for a depth CGR; everything else is
+    /// ignored. A depth image FSPF cannot use (η larger than the image, malformed
+    /// intrinsics) is skipped: the parameters were checked against the camera when the
+    /// localizer was built.
+    fn update(&mut self, reading: &Reading) {
+        match (reading, &self.source) {
+            (Reading::Laser(scan), Source::Laser) => {
+                self.stamp = self.stamp.max(scan.stamp);
+                self.observe_laser(scan);
+            }
+            (Reading::Depth(img), Source::Depth { .. }) => {
+                self.stamp = self.stamp.max(img.stamp);
+                if self.observe_depth(img).is_err() {
+                    return;
+                }
+            }
+            _ => return,
+        }
+        self.cgr_update();
+    }
+
+    fn estimate(&self) -> Estimate {
+        let p = self.pending;
+        let pose = self.mean.compose(&p);
+        let (s, c) = self.mean.theta.sin_cos();
+        let j = Matrix3::new(
+            1.0,
+            0.0,
+            -s * p.x - c * p.y,
+            0.0,
+            1.0,
+            c * p.x - s * p.y,
+            0.0,
+            0.0,
+            1.0,
+        );
+        Estimate {
+            stamp: self.stamp,
+            pose,
+            covariance: j * self.covariance * j.transpose(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use atrium_worlds::Segment;
+
+    /// A 10 × 4 m room with a 1 m notch in the north wall at x ∈ [6, 7] (so that x is
+    /// observable), as a vector map.
+    fn room() -> VectorMap {
+        let s = |a: [f64; 2], b: [f64; 2]| Segment { a, b };
+        VectorMap {
+            segments: vec![
+                s([0.0, 0.0], [10.0, 0.0]),
+                s([10.0, 0.0], [10.0, 4.0]),
+                s([10.0, 4.0], [7.0, 4.0]),
+                s([7.0, 4.0], [7.0, 5.0]),
+                s([7.0, 5.0], [6.0, 5.0]),
+                s([6.0, 5.0], [6.0, 4.0]),
+                s([6.0, 4.0], [0.0, 4.0]),
+                s([0.0, 4.0], [0.0, 0.0]),
+            ],
+        }
+    }
+
+    /// Exact laser endpoints from `pose`: 181 beams over 360°, ray-cast on the map.
+    fn scan_points(map: &VectorMap, pose: Pose2) -> Vec<[f64; 2]> {
+        let mut pts = Vec::new();
+        for i in 0..181 {
+            let a = -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / 181.0;
+            let dir = [(pose.theta + a).cos(), (pose.theta + a).sin()];
+            let mut best = f64::INFINITY;
+            for s in &map.segments {
+                if let Some(t) = atrium_worlds::geometry::ray_segment_intersection(
+                    [pose.x, pose.y],
+                    dir,
+                    s.a,
+                    s.b,
+                ) {
+                    best = best.min(t);
+                }
+            }
+            if best < 8.0 {
+                pts.push([best * a.cos(), best * a.sin()]);
+            }
+        }
+        pts
+    }
+
+    fn cgr(map: &VectorMap, params: CgrParams, start: Pose2) -> Cgr {
+        Cgr::laser("cgr", params, map, start, [0.0; 3], 1).unwrap()
+    }
+
+    #[test]
+    fn refinement_moves_a_perturbed_pose_toward_the_truth() {
+        let map = room();
+        let truth = Pose2::new(5.0, 2.0, 0.3);
+        let mut c = cgr(&map, CgrParams::default(), truth);
+        let pts = scan_points(&map, truth);
+        c.set_observation(&pts, None);
+        for off in [
+            Pose2::new(0.1, 0.0, 0.0),
+            Pose2::new(0.0, -0.12, 0.0),
+            Pose2::new(0.0, 0.0, 0.04),
+            Pose2::new(-0.08, 0.08, -0.03),
+        ] {
+            let start = Pose2::new(truth.x + off.x, truth.y + off.y, truth.theta + off.theta);
+            let err = |p: &Pose2| p.distance(&truth) + p.heading_error(&truth);
+            let mut p = start;
+            let mut last = err(&p);
+            for _ in 0..6 {
+                p = c.refine(&p, 1);
+                let now = err(&p);
+                assert!(now <= last + 1e-9, "{off:?}: error grew {last} -> {now}");
+                last = now;
+            }
+            assert!(
+                last < 0.2 * err(&start),
+                "{off:?}: {} -> {last} after 6 iterations",
+                err(&start)
+            );
+            assert!(c.log_likelihood(&p) > c.log_likelihood(&start));
+        }
+    }
+
+    #[test]
+    fn tracks_a_straight_drive_from_noisy_odometry() {
+        let map = room();
+        let params = CgrParams {
+            particles: 100,
+            alpha: [0.05; 4],
+            ..Default::default()
+        };
+        let mut truth = Pose2::new(1.0, 2.0, 0.0);
+        let mut c = cgr(&map, params, truth);
+        let mut odo = truth;
+        for k in 0..80 {
+            let step = Pose2::new(0.1, 0.0, if k < 40 { 0.0 } else { 0.01 });
+            let next = truth.compose(&step);
+            // Odometry believes 3 % less distance and a slight left drift.
+            let next_odo = odo.compose(&Pose2::new(0.097, 0.001, step.theta + 0.002));
+            c.predict(&OdometryDelta {
+                stamp: k as f64,
+                from: odo,
+                to: next_odo,
+            });
+            truth = next;
+            odo = next_odo;
+            // The exact endpoints, straight into the observation (the scan path is the
+            // scenario tests' job).
+            let pts = scan_points(&map, truth);
+            c.set_observation(&pts, None);
+            c.cgr_update();
+        }
+        let est = c.estimate().pose;
+        assert!(est.distance(&truth) < 0.03, "{est:?} vs {truth:?}");
+        assert!(est.heading_error(&truth) < 0.01);
+        assert!(
+            odo.distance(&truth) > 0.2,
+            "odometry alone drifted {}",
+            odo.distance(&truth)
+        );
+        assert!(c.acceptance_rate() > 0.3, "{}", c.acceptance_rate());
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let map = room();
+        let bad = |p: CgrParams| {
+            Cgr::laser("c", p, &map, Pose2::default(), [0.1; 3], 0)
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(bad(CgrParams {
+            particles: 0,
+            ..Default::default()
+        })
+        .contains("particles"));
+        assert!(bad(CgrParams {
+            step: 0.0,
+            ..Default::default()
+        })
+        .contains("step"));
+        assert!(bad(CgrParams {
+            fspf: FspfParams {
+                l: 1,
+                ..Default::default()
+            },
+            ..Default::default()
+        })
+        .contains("fspf.l"));
+        let e = Cgr::laser(
+            "c",
+            CgrParams::default(),
+            &map,
+            Pose2::default(),
+            [-1.0; 3],
+            0,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("sigma"), "{e}");
+    }
+}

@@ -1,0 +1,267 @@
+//! The vector map (line segments) prepared for point-to-line correspondences: each segment's
+//! unit normal, and a grid that lists, per cell, the few segments nearest to it, so that the
+//! nearest segment to a point is found by checking a handful of candidates instead of all of
+//! them. Used by CGR (004_5bf198ec52fcbc0c.txt §2.1–2.2), whose observation model and its
+//! gradient are built on point-to-line distances to the map.
+
+use crate::error::LocalizationError;
+use atrium_worlds::VectorMap;
+
+/// Candidate segments kept per grid cell.
+pub const CANDIDATES: usize = 4;
+const NONE: u32 = u32::MAX;
+
+/// One map segment with what the correspondence search needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Line {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+    /// Unit direction a → b.
+    pub dir: [f64; 2],
+    /// Unit normal (dir turned +90°).
+    pub normal: [f64; 2],
+    pub length: f64,
+}
+
+impl Line {
+    /// Distance from `p` to the segment (not the infinite line).
+    #[inline]
+    pub fn segment_distance(&self, p: [f64; 2]) -> f64 {
+        let (dx, dy) = (p[0] - self.a[0], p[1] - self.a[1]);
+        let t = (dx * self.dir[0] + dy * self.dir[1]).clamp(0.0, self.length);
+        let (cx, cy) = (self.a[0] + t * self.dir[0], self.a[1] + t * self.dir[1]);
+        (p[0] - cx).hypot(p[1] - cy)
+    }
+
+    /// Signed distance from `p` to the segment's infinite line, along `normal`.
+    #[inline]
+    pub fn line_offset(&self, p: [f64; 2]) -> f64 {
+        (p[0] - self.a[0]) * self.normal[0] + (p[1] - self.a[1]) * self.normal[1]
+    }
+}
+
+/// The vector map with a candidate grid.
+#[derive(Debug, Clone)]
+pub struct LineMap {
+    lines: Vec<Line>,
+    origin: [f64; 2],
+    resolution: f64,
+    width: usize,
+    height: usize,
+    /// `CANDIDATES` segment indices per cell, nearest first, `NONE`-padded.
+    cells: Vec<[u32; CANDIDATES]>,
+    /// Candidates are complete for points within this distance of a segment, m.
+    reach: f64,
+}
+
+impl LineMap {
+    /// Indexes `map` on a grid of `resolution` metres; a cell lists the `CANDIDATES`
+    /// segments nearest to its centre among those within `reach` (plus half a cell
+    /// diagonal). Zero-length segments are dropped.
+    pub fn new(map: &VectorMap, resolution: f64, reach: f64) -> Result<Self, LocalizationError> {
+        if !(resolution.is_finite() && resolution > 0.0) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "line map resolution must be finite and > 0, got {resolution}"
+            )));
+        }
+        if !(reach.is_finite() && reach > 0.0) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "max_correspondence must be finite and > 0, got {reach}"
+            )));
+        }
+        let mut lines = Vec::with_capacity(map.segments.len());
+        for s in &map.segments {
+            let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
+            let length = dx.hypot(dy);
+            if !s.a.iter().chain(&s.b).all(|v| v.is_finite()) || length <= 1e-9 {
+                continue;
+            }
+            let dir = [dx / length, dy / length];
+            lines.push(Line {
+                a: s.a,
+                b: s.b,
+                dir,
+                normal: [-dir[1], dir[0]],
+                length,
+            });
+        }
+        if lines.is_empty() {
+            return Err(LocalizationError::InvalidParameter(
+                "the vector map has no segment".into(),
+            ));
+        }
+        let margin = reach + resolution;
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for l in &lines {
+            for p in [l.a, l.b] {
+                for k in 0..2 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        let origin = [lo[0] - margin, lo[1] - margin];
+        let width = ((hi[0] - lo[0] + 2.0 * margin) / resolution).ceil() as usize + 1;
+        let height = ((hi[1] - lo[1] + 2.0 * margin) / resolution).ceil() as usize + 1;
+        if width.saturating_mul(height) > 50_000_000 {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "the line map grid would be {width} × {height} cells; use a coarser resolution"
+            )));
+        }
+        let mut cells = vec![[NONE; CANDIDATES]; width * height];
+        let mut dist = vec![[f64::INFINITY; CANDIDATES]; width * height];
+        let half_diag = 0.5 * resolution * std::f64::consts::SQRT_2;
+        let cutoff = reach + half_diag;
+        for (li, l) in lines.iter().enumerate() {
+            let i0 = ((l.a[0].min(l.b[0]) - cutoff - origin[0]) / resolution)
+                .floor()
+                .max(0.0) as usize;
+            let i1 = (((l.a[0].max(l.b[0]) + cutoff - origin[0]) / resolution).ceil() as usize)
+                .min(width - 1);
+            let j0 = ((l.a[1].min(l.b[1]) - cutoff - origin[1]) / resolution)
+                .floor()
+                .max(0.0) as usize;
+            let j1 = (((l.a[1].max(l.b[1]) + cutoff - origin[1]) / resolution).ceil() as usize)
+                .min(height - 1);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let c = [
+                        origin[0] + (i as f64 + 0.5) * resolution,
+                        origin[1] + (j as f64 + 0.5) * resolution,
+                    ];
+                    let d = l.segment_distance(c);
+                    if d > cutoff {
+                        continue;
+                    }
+                    let k = j * width + i;
+                    // Insertion into the sorted candidate list.
+                    let (ids, ds) = (&mut cells[k], &mut dist[k]);
+                    if d >= ds[CANDIDATES - 1] {
+                        continue;
+                    }
+                    let mut pos = CANDIDATES - 1;
+                    while pos > 0 && ds[pos - 1] > d {
+                        ds[pos] = ds[pos - 1];
+                        ids[pos] = ids[pos - 1];
+                        pos -= 1;
+                    }
+                    ds[pos] = d;
+                    ids[pos] = li as u32;
+                }
+            }
+        }
+        Ok(Self {
+            lines,
+            origin,
+            resolution,
+            width,
+            height,
+            cells,
+            reach,
+        })
+    }
+
+    pub fn lines(&self) -> &[Line] {
+        &self.lines
+    }
+
+    pub fn reach(&self) -> f64 {
+        self.reach
+    }
+
+    /// The candidate segments of the cell holding `p` (empty off the grid or far from walls).
+    #[inline]
+    pub fn candidates(&self, p: [f64; 2]) -> &[u32] {
+        let fi = (p[0] - self.origin[0]) / self.resolution;
+        let fj = (p[1] - self.origin[1]) / self.resolution;
+        if !(fi >= 0.0 && fj >= 0.0) {
+            return &[];
+        }
+        let (i, j) = (fi as usize, fj as usize);
+        if i >= self.width || j >= self.height {
+            return &[];
+        }
+        let c = &self.cells[j * self.width + i];
+        let n = c.iter().position(|&x| x == NONE).unwrap_or(CANDIDATES);
+        &c[..n]
+    }
+
+    /// The segment nearest to `p` within `reach`, optionally only among segments whose normal
+    /// is within the angle whose cosine is `min_cos` of `normal` (either direction); returns
+    /// (segment index, distance to the segment).
+    #[inline]
+    pub fn nearest(&self, p: [f64; 2], normal: Option<([f64; 2], f64)>) -> Option<(usize, f64)> {
+        let mut best: Option<(usize, f64)> = None;
+        for &id in self.candidates(p) {
+            let l = &self.lines[id as usize];
+            if let Some((n, min_cos)) = normal {
+                if (n[0] * l.normal[0] + n[1] * l.normal[1]).abs() < min_cos {
+                    continue;
+                }
+            }
+            let d = l.segment_distance(p);
+            if d <= self.reach && best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((id as usize, d));
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use atrium_worlds::Segment;
+
+    fn square() -> VectorMap {
+        // A 4 × 4 m square room plus a short partition from (2, 0) to (2, 1).
+        let s = |a: [f64; 2], b: [f64; 2]| Segment { a, b };
+        VectorMap {
+            segments: vec![
+                s([0.0, 0.0], [4.0, 0.0]),
+                s([4.0, 0.0], [4.0, 4.0]),
+                s([4.0, 4.0], [0.0, 4.0]),
+                s([0.0, 4.0], [0.0, 0.0]),
+                s([2.0, 0.0], [2.0, 1.0]),
+            ],
+        }
+    }
+
+    #[test]
+    fn nearest_matches_brute_force() {
+        let map = square();
+        let lm = LineMap::new(&map, 0.1, 0.6).unwrap();
+        let mut checked = 0;
+        for i in 0..80 {
+            for j in 0..80 {
+                let p = [-0.5 + 0.0625 * i as f64, -0.5 + 0.0625 * j as f64];
+                let brute = lm
+                    .lines()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, l)| (k, l.segment_distance(p)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .unwrap();
+                match lm.nearest(p, None) {
+                    Some((_, d)) => {
+                        assert!((d - brute.1).abs() < 1e-12, "{p:?}");
+                        checked += 1;
+                    }
+                    None => assert!(brute.1 > 0.6 - 1e-12, "{p:?}: {}", brute.1),
+                }
+            }
+        }
+        assert!(checked > 1000);
+        // With a normal constraint: near the partition's end, a point with a y-normal
+        // corresponds to the bottom wall, not the (closer) vertical partition.
+        let p = [2.05, 0.3];
+        assert_eq!(lm.nearest(p, None).unwrap().0, 4);
+        let (id, d) = lm.nearest(p, Some(([0.0, 1.0], 0.8))).unwrap();
+        assert_eq!(id, 0);
+        assert!((d - 0.3).abs() < 1e-12);
+        // Signed offset along the normal (bottom wall's normal is +y).
+        assert!((lm.lines()[0].line_offset([1.0, 0.25]) - 0.25).abs() < 1e-12);
+        assert!(LineMap::new(&VectorMap::default(), 0.1, 0.5).is_err());
+        assert!(LineMap::new(&map, 0.0, 0.5).is_err());
+    }
+}
