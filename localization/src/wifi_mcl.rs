@@ -1,0 +1,638 @@
+//! WiFi localization with the GP-learnt WiFi graph (004_5bf198ec52fcbc0c.txt §2.3, eq. 1–2):
+//! a particle filter with the odometry motion model (Thrun et al. Table 5.6) whose
+//! observation likelihood comes from the graph's bicubically interpolated mean and variance.
+//!
+//! Observation likelihood of a scan at a particle's position x, per access point a of the
+//! graph (independent given x):
+//! - heard with RSSI z: N(z; μ_a(x), σ_a²(x) + σ_n,a²), μ and σ² interpolated from the graph,
+//!   σ_n,a the fitted reading noise;
+//! - missing from the scan: the probability that the reading fell below the cut-off,
+//!   Φ((c − μ_a(x)) / √(σ_a²(x) + σ_n,a²)); a place where the access point is strong is
+//!   thereby evidence against, not silently ignored;
+//! - each term mixed with a small outlier probability (`outlier`), so one odd reading cannot
+//!   veto a particle.
+//!
+//! The product is tempered by `exponent` ≤ 1: readings of one scan share the graph's
+//! spatially correlated errors, which the independence assumption would count many times
+//! over. Readings of access points the graph does not know are counted
+//! ([`WifiMcl::unknown_readings`]) and otherwise unused: nothing was learnt about them.
+//!
+//! A particle's likelihood costs one 4 × 4 stencil plus 16 node reads per access point,
+//! independent of the number of training samples.
+
+use crate::error::LocalizationError;
+use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::mcl::InitialBelief;
+use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::resampling::low_variance_indices;
+use crate::wifi_graph::WifiGraph;
+use atrium_robots::{normalize_angle, Pose2, Reading, WifiScan};
+use atrium_worlds::{Cell, OccupancyGrid};
+use nalgebra::Matrix3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Parameters of the WiFi particle filter, as written in a scenario. Every field has a default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WifiMclParams {
+    /// Particles while tracking. Default 2000.
+    pub particles: usize,
+    /// Particles of a global initial belief, reduced to `particles` at the first resampling.
+    /// Default 30000.
+    pub global_particles: usize,
+    /// Odometry motion model α1–α4. Default 0.05 each.
+    pub alpha: [f64; 4],
+    /// Probability that one reading is an outlier. Default 0.02.
+    pub outlier: f64,
+    /// Exponent of the scan likelihood (1: independent readings). Default 0.5.
+    pub exponent: f64,
+    /// Receiver cut-off, dBm; None takes the graph's. Default None.
+    pub cutoff_dbm: Option<f64>,
+    /// Fraction of particles replaced by uniformly random ones at each resampling (recovery
+    /// from a wrong global fix). Default 0.
+    pub random_fraction: f64,
+}
+
+impl Default for WifiMclParams {
+    fn default() -> Self {
+        Self {
+            particles: 2000,
+            global_particles: 30000,
+            alpha: [0.05; 4],
+            outlier: 0.02,
+            exponent: 0.5,
+            cutoff_dbm: None,
+            random_fraction: 0.0,
+        }
+    }
+}
+
+impl WifiMclParams {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=1_000_000).contains(&self.particles) {
+            return Err(format!(
+                "particles must be within [1, 1000000], got {}",
+                self.particles
+            ));
+        }
+        if !(1..=10_000_000).contains(&self.global_particles) {
+            return Err(format!(
+                "global_particles must be within [1, 10000000], got {}",
+                self.global_particles
+            ));
+        }
+        for (i, a) in self.alpha.iter().enumerate() {
+            if !(a.is_finite() && *a >= 0.0) {
+                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
+            }
+        }
+        if !(self.outlier > 0.0 && self.outlier < 1.0) {
+            return Err(format!(
+                "outlier must be within (0, 1), got {}",
+                self.outlier
+            ));
+        }
+        if !(self.exponent > 0.0 && self.exponent <= 1.0) {
+            return Err(format!(
+                "exponent must be within (0, 1], got {}",
+                self.exponent
+            ));
+        }
+        if let Some(c) = self.cutoff_dbm {
+            if !(c.is_finite() && (-150.0..=0.0).contains(&c)) {
+                return Err(format!("cutoff_dbm must be within [-150, 0], got {c}"));
+            }
+        }
+        if !(0.0..1.0).contains(&self.random_fraction) {
+            return Err(format!(
+                "random_fraction must be within [0, 1), got {}",
+                self.random_fraction
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Standard normal CDF via erfc (W. J. Cody's rational Chebyshev fit as in Numerical
+/// Recipes `erfcc`: fractional error below 1.2e-7 everywhere).
+fn normal_cdf(z: f64) -> f64 {
+    let x = -z / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * x.abs());
+    let y = t
+        * (-x * x - 1.265_512_23
+            + t * (1.000_023_68
+                + t * (0.374_091_96
+                    + t * (0.096_784_18
+                        + t * (-0.186_288_06
+                            + t * (0.278_868_07
+                                + t * (-1.135_203_98
+                                    + t * (1.488_515_87
+                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+            .exp();
+    let erfc = if x >= 0.0 { y } else { 2.0 - y };
+    0.5 * erfc
+}
+
+/// Particle filter on a [`WifiGraph`].
+pub struct WifiMcl {
+    name: String,
+    params: WifiMclParams,
+    graph: Arc<WifiGraph>,
+    cutoff: f64,
+    motion: OdometryMotionModel,
+    rng: ChaCha8Rng,
+    n: usize,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    th: Vec<f64>,
+    w: Vec<f64>,
+    x2: Vec<f64>,
+    y2: Vec<f64>,
+    th2: Vec<f64>,
+    logw: Vec<f64>,
+    idx: Vec<usize>,
+    /// Per graph access point: the reading of the current scan, NaN when missing.
+    z: Vec<f64>,
+    /// Free positions to draw random particles from (cell centres on a ≤ 0.25 m lattice).
+    free: Vec<[f64; 2]>,
+    free_step: f64,
+    pending: Pose2,
+    unknown: usize,
+    stamp: f64,
+    mean: Pose2,
+    covariance: Matrix3<f64>,
+}
+
+impl WifiMcl {
+    /// `grid` supplies the free space for a global belief and random particles.
+    pub fn new(
+        name: &str,
+        params: WifiMclParams,
+        graph: Arc<WifiGraph>,
+        grid: &OccupancyGrid,
+        init: InitialBelief,
+        seed: u64,
+    ) -> Result<WifiMcl, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        // Free space on a lattice of about 0.25 m: enough for uniform draws, and small.
+        let stride = ((0.25 / grid.resolution).round() as usize).max(1);
+        let free_step = stride as f64 * grid.resolution;
+        let mut free = Vec::new();
+        for j in (0..grid.height).step_by(stride) {
+            for i in (0..grid.width).step_by(stride) {
+                if grid.cells[j * grid.width + i] == Cell::Free {
+                    free.push([
+                        grid.origin[0] + (i as f64 + 0.5) * grid.resolution,
+                        grid.origin[1] + (j as f64 + 0.5) * grid.resolution,
+                    ]);
+                }
+            }
+        }
+        let cap = params.particles.max(params.global_particles);
+        let cutoff = params.cutoff_dbm.unwrap_or(graph.cutoff_dbm);
+        let n_ap = graph.aps.len();
+        let mut f = WifiMcl {
+            name: name.to_owned(),
+            motion: OdometryMotionModel::new(params.alpha),
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            cutoff,
+            n: 0,
+            x: vec![0.0; cap],
+            y: vec![0.0; cap],
+            th: vec![0.0; cap],
+            w: vec![0.0; cap],
+            x2: vec![0.0; cap],
+            y2: vec![0.0; cap],
+            th2: vec![0.0; cap],
+            logw: vec![0.0; cap],
+            idx: vec![0; cap],
+            z: vec![f64::NAN; n_ap],
+            free,
+            free_step,
+            pending: Pose2::default(),
+            unknown: 0,
+            stamp: 0.0,
+            mean: Pose2::default(),
+            covariance: Matrix3::zeros(),
+            graph,
+            params,
+        };
+        f.initialise(&init)?;
+        Ok(f)
+    }
+
+    fn initialise(&mut self, init: &InitialBelief) -> Result<(), LocalizationError> {
+        match init {
+            InitialBelief::Tracking { pose, sigma } => {
+                if !pose.is_finite() || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+                    return Err(LocalizationError::InvalidInitialBelief {
+                        field: "pose",
+                        reason: format!("pose and sigma must be finite, got {pose:?} {sigma:?}"),
+                    });
+                }
+                let n = self.params.particles;
+                for i in 0..n {
+                    let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
+                    self.x[i] = pose.x + sigma[0] * g(&mut self.rng);
+                    self.y[i] = pose.y + sigma[1] * g(&mut self.rng);
+                    self.th[i] = normalize_angle(pose.theta + sigma[2] * g(&mut self.rng));
+                }
+                self.n = n;
+            }
+            InitialBelief::Global { regions } => {
+                if !regions.is_empty() {
+                    self.free
+                        .retain(|p| regions.iter().any(|poly| point_in_polygon(*p, poly)));
+                }
+                if self.free.is_empty() {
+                    return Err(LocalizationError::InvalidInitialBelief {
+                        field: "regions",
+                        reason: "no free space of the map lies inside the polygons".into(),
+                    });
+                }
+                let n = self.params.global_particles;
+                for i in 0..n {
+                    let (x, y, t) = self.random_pose();
+                    self.x[i] = x;
+                    self.y[i] = y;
+                    self.th[i] = t;
+                }
+                self.n = n;
+            }
+        }
+        let n = self.n;
+        self.w[..n].fill(1.0 / n as f64);
+        self.compute_estimate();
+        Ok(())
+    }
+
+    fn random_pose(&mut self) -> (f64, f64, f64) {
+        let p = self.free[self.rng.random_range(0..self.free.len())];
+        let h = 0.5 * self.free_step;
+        let u: f64 = self.rng.random_range(-h..h);
+        let v: f64 = self.rng.random_range(-h..h);
+        let t: f64 = self
+            .rng
+            .random_range(-std::f64::consts::PI..std::f64::consts::PI);
+        (p[0] + u, p[1] + v, t)
+    }
+
+    pub fn particle_count(&self) -> usize {
+        self.n
+    }
+
+    /// Readings (over all scans so far) of access points the graph does not know.
+    pub fn unknown_readings(&self) -> usize {
+        self.unknown
+    }
+
+    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
+        (0..self.n).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+    }
+
+    /// Loads a scan into `z` (per graph AP, NaN when missing). Returns the readings used.
+    fn load_scan(&mut self, scan: &WifiScan) -> usize {
+        self.z.fill(f64::NAN);
+        let mut used = 0;
+        for r in &scan.readings {
+            match self.graph.ap_index(&r.ap) {
+                Some(a) if r.rssi_dbm.is_finite() => {
+                    self.z[a] = r.rssi_dbm;
+                    used += 1;
+                }
+                Some(_) => {}
+                None => self.unknown += 1,
+            }
+        }
+        used
+    }
+
+    /// Log-likelihood of the loaded scan at (x, y) (before tempering).
+    #[inline]
+    pub fn log_likelihood_at(&self, x: f64, y: f64) -> f64 {
+        let st = self.graph.stencil(x, y);
+        let eps = self.params.outlier;
+        // Outlier densities: a uniform reading over a 100 dB span; a missing reading anyway.
+        let (out_heard, out_missing) = (eps / 100.0, eps);
+        let mut l = 0.0;
+        for (a, &z) in self.z.iter().enumerate() {
+            let (mu, var) = self.graph.eval(&st, a);
+            let noise = self.graph.aps[a].kernel.noise_sd;
+            let s2 = var + noise * noise;
+            let p = if z.is_nan() {
+                let s = s2.sqrt();
+                (1.0 - eps) * normal_cdf((self.cutoff - mu) / s) + out_missing
+            } else {
+                let d = z - mu;
+                (1.0 - eps) * (-0.5 * d * d / s2).exp() / (2.0 * std::f64::consts::PI * s2).sqrt()
+                    + out_heard
+            };
+            l += p.ln();
+        }
+        l
+    }
+
+    /// The likelihood of `scan` at every particle, into the weights; then resampling.
+    fn sensor_update(&mut self, scan: &WifiScan) {
+        self.load_scan(scan);
+        let n = self.n;
+        for i in 0..n {
+            self.logw[i] = self.params.exponent * self.log_likelihood_at(self.x[i], self.y[i]);
+        }
+        let max = self.logw[..n]
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
+        for i in 0..n {
+            let w = (self.logw[i] - max).exp();
+            self.w[i] = w;
+            sum += w;
+        }
+        for w in &mut self.w[..n] {
+            *w /= sum;
+        }
+        self.compute_estimate();
+        self.resample();
+    }
+
+    fn resample(&mut self) {
+        let n = self.n;
+        let m = self.params.particles;
+        if !low_variance_indices(&self.w[..n], &mut self.idx[..m], &mut self.rng) {
+            for (k, slot) in self.idx[..m].iter_mut().enumerate() {
+                *slot = k * n / m;
+            }
+        }
+        let p_rand = self.params.random_fraction;
+        for k in 0..m {
+            let (x, y, t) = if p_rand > 0.0 && self.rng.random::<f64>() < p_rand {
+                self.random_pose()
+            } else {
+                let i = self.idx[k];
+                (self.x[i], self.y[i], self.th[i])
+            };
+            self.x2[k] = x;
+            self.y2[k] = y;
+            self.th2[k] = t;
+        }
+        std::mem::swap(&mut self.x, &mut self.x2);
+        std::mem::swap(&mut self.y, &mut self.y2);
+        std::mem::swap(&mut self.th, &mut self.th2);
+        self.n = m;
+        self.w[..m].fill(1.0 / m as f64);
+    }
+
+    fn apply_motion(&mut self) {
+        let p = self.pending;
+        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
+            return;
+        }
+        let inc = self.motion.decompose(&Pose2::default(), &p);
+        for i in 0..self.n {
+            let (x, y, th) = apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
+            self.x[i] = x;
+            self.y[i] = y;
+            self.th[i] = th;
+        }
+        self.pending = Pose2::default();
+    }
+
+    fn compute_estimate(&mut self) {
+        let n = self.n;
+        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let w = self.w[i];
+            mx += w * self.x[i];
+            my += w * self.y[i];
+            let (s, c) = self.th[i].sin_cos();
+            ms += w * s;
+            mc += w * c;
+        }
+        let mt = ms.atan2(mc);
+        let mut cov = Matrix3::zeros();
+        for i in 0..n {
+            let d = nalgebra::Vector3::new(
+                self.x[i] - mx,
+                self.y[i] - my,
+                normalize_angle(self.th[i] - mt),
+            );
+            cov += self.w[i] * d * d.transpose();
+        }
+        self.mean = Pose2::new(mx, my, mt);
+        self.covariance = cov;
+    }
+}
+
+impl Localizer for WifiMcl {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn predict(&mut self, delta: &OdometryDelta) {
+        if !delta.from.is_finite() || !delta.to.is_finite() {
+            return;
+        }
+        self.pending = self.pending.compose(&delta.from.between(&delta.to));
+        self.stamp = self.stamp.max(delta.stamp);
+    }
+
+    /// WiFi scans only (odometry arrives through `predict`).
+    fn update(&mut self, reading: &Reading) {
+        let Reading::Wifi(scan) = reading else {
+            return;
+        };
+        self.stamp = self.stamp.max(scan.stamp);
+        self.apply_motion();
+        self.sensor_update(scan);
+    }
+
+    fn estimate(&self) -> Estimate {
+        let p = self.pending;
+        let pose = self.mean.compose(&p);
+        let (s, c) = self.mean.theta.sin_cos();
+        let j = Matrix3::new(
+            1.0,
+            0.0,
+            -s * p.x - c * p.y,
+            0.0,
+            1.0,
+            c * p.x - s * p.y,
+            0.0,
+            0.0,
+            1.0,
+        );
+        Estimate {
+            stamp: self.stamp,
+            pose,
+            covariance: j * self.covariance * j.transpose(),
+        }
+    }
+}
+
+/// Even-odd rule.
+fn point_in_polygon(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
+    let mut inside = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gp::SeKernel;
+    use crate::wifi_graph::GraphAp;
+    use atrium_robots::WifiReading;
+
+    /// Four APs at the corners of a 20 × 20 m room, log-distance means on a 1 m graph.
+    fn graph() -> (Arc<WifiGraph>, Vec<[f64; 2]>) {
+        let aps_at = vec![[0.0, 0.0], [20.0, 0.0], [0.0, 20.0], [20.0, 20.0]];
+        let (w, h) = (25, 25);
+        let origin = [-2.0, -2.0];
+        let mut mean = Vec::new();
+        let mut var = Vec::new();
+        for j in 0..h {
+            for i in 0..w {
+                let p = [origin[0] + i as f64, origin[1] + j as f64];
+                for a in &aps_at {
+                    mean.push(rssi(*a, p));
+                    var.push(0.5);
+                }
+            }
+        }
+        let aps = (0..4)
+            .map(|k| GraphAp {
+                name: format!("ap{k}"),
+                kernel: SeKernel {
+                    length_scale: 3.0,
+                    signal_sd: 5.0,
+                    noise_sd: 2.0,
+                },
+                prior_mean: -70.0,
+                heard: 0,
+            })
+            .collect();
+        let g = WifiGraph::from_nodes(origin, 1.0, w, h, aps, mean, var, -90.0).unwrap();
+        (Arc::new(g), aps_at)
+    }
+
+    fn rssi(ap: [f64; 2], p: [f64; 2]) -> f64 {
+        let d = ((ap[0] - p[0]).powi(2) + (ap[1] - p[1]).powi(2) + 4.0).sqrt();
+        -40.0 - 30.0 * d.log10()
+    }
+
+    fn scan(aps: &[[f64; 2]], p: [f64; 2], drop: Option<usize>) -> Reading {
+        Reading::Wifi(WifiScan {
+            stamp: 1.0,
+            sensor: "wifi".into(),
+            readings: aps
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| Some(*k) != drop)
+                .map(|(k, a)| WifiReading {
+                    ap: format!("ap{k}"),
+                    channel: 1,
+                    rssi_dbm: rssi(*a, p).round(),
+                })
+                .collect(),
+        })
+    }
+
+    fn room_grid() -> OccupancyGrid {
+        OccupancyGrid {
+            origin: [0.0, 0.0],
+            resolution: 0.1,
+            width: 200,
+            height: 200,
+            cells: vec![Cell::Free; 40000],
+        }
+    }
+
+    #[test]
+    fn global_belief_collapses_onto_the_scan_position() {
+        let (g, aps) = graph();
+        let mut f = WifiMcl::new(
+            "wifi",
+            WifiMclParams::default(),
+            g,
+            &room_grid(),
+            InitialBelief::Global { regions: vec![] },
+            3,
+        )
+        .unwrap();
+        assert_eq!(f.particle_count(), 30000);
+        let truth = [6.0, 13.0];
+        for _ in 0..3 {
+            f.update(&scan(&aps, truth, None));
+        }
+        let e = f.estimate().pose;
+        assert_eq!(f.particle_count(), 2000);
+        assert!((e.x - truth[0]).hypot(e.y - truth[1]) < 1.0, "{e:?}");
+    }
+
+    #[test]
+    fn a_missing_strong_access_point_is_evidence_against() {
+        let (g, aps) = graph();
+        let mut f = WifiMcl::new(
+            "wifi",
+            WifiMclParams::default(),
+            g,
+            &room_grid(),
+            InitialBelief::Tracking {
+                pose: Pose2::new(10.0, 10.0, 0.0),
+                sigma: [0.0; 3],
+            },
+            1,
+        )
+        .unwrap();
+        // Near ap0 (−53 dBm expected) a scan without ap0 is far less likely than one with it.
+        let p = [1.0, 1.0];
+        let Reading::Wifi(with) = scan(&aps, p, None) else {
+            unreachable!()
+        };
+        let Reading::Wifi(without) = scan(&aps, p, Some(0)) else {
+            unreachable!()
+        };
+        f.load_scan(&with);
+        let l_with = f.log_likelihood_at(p[0], p[1]);
+        f.load_scan(&without);
+        let l_without = f.log_likelihood_at(p[0], p[1]);
+        assert!(l_without < l_with - 2.0, "{l_with} {l_without}");
+        // Far from ap0 (in the opposite corner, ~−80 dBm) missing it costs less.
+        let q = [19.0, 19.0];
+        let l_far_without = f.log_likelihood_at(q[0], q[1]);
+        assert!(l_far_without.is_finite());
+        // Unknown APs are counted.
+        let mut odd = with.clone();
+        odd.readings[0].ap = "stranger".into();
+        f.load_scan(&odd);
+        assert_eq!(f.unknown_readings(), 1);
+    }
+
+    #[test]
+    fn normal_cdf_matches_known_values() {
+        for (z, p) in [
+            (0.0, 0.5),
+            (1.0, 0.841_344_746),
+            (-2.0, 0.022_750_132),
+            (3.0, 0.998_650_102),
+        ] {
+            assert!((normal_cdf(z) - p).abs() < 1e-7, "{z}");
+        }
+    }
+}
