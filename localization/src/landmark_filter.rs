@@ -1,0 +1,623 @@
+//! The recursive Bayesian landmark filter of Theodoridis et al.,
+//! /work/shared/seeds/002_4f056f43b5d8a234.txt: node-based odometry (Table I) whose pose is
+//! reset to a node when the laser recognises the landmark there (passive localisation,
+//! Algorithm 1).
+//!
+//! - Signatures (§III-B, §IV-B): a 180-sample scan becomes a 6-bin histogram of its ranges
+//!   ([`LandmarkSignature`]).
+//! - Recursive update (eq. 1–4, [`RecursiveLandmarkModel`]): the prior comes from the current
+//!   observation, the conditional is the node's model learnt from its training observations,
+//!   the posterior is normalised by the evidence and fed back as the next prior (eq. 2).
+//! - Covariance signature γ (eq. 6, [`covariance`], [`covariance_error`]) with a threshold γ_n
+//!   per node learnt in a training run ([`train`]).
+//! - Passive localisation (Algorithm 1, [`LandmarkFilter`]): inside radius ρ of the next node
+//!   and with γ < γ_n, the pose is set to the node; the first steps after each node are not
+//!   trusted (§IV-B filters the first 30 time steps of 100 ms).
+//!
+//! Where the paper leaves a choice open, the choice and its reason are stated at the item.
+
+use crate::error::LocalizationError;
+use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use atrium_robots::node_route::Leg;
+use atrium_robots::{normalize_angle, Pose2, Reading};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Histogram bins of a signature (002 §IV-B: "a six-bin histogram for each model").
+pub const BINS: usize = 6;
+
+/// A normalised 6-bin histogram.
+pub type Histogram = [f64; BINS];
+
+/// The landmark signature of one scan: the histogram of its ranges over [0, max_range] in six
+/// equal bins (002 §IV-B), normalised to sum 1.
+///
+/// Every bin starts with one pseudo-count (Laplace smoothing, a uniform Dirichlet prior): the
+/// recursive update multiplies histograms, and one empty bin would otherwise zero a bin of
+/// the posterior for good. Readings at or beyond `max_range` (nothing returned) fall in the
+/// last bin; non-finite readings are skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkSignature(pub Histogram);
+
+impl LandmarkSignature {
+    pub fn from_ranges(ranges: &[f64], max_range: f64) -> LandmarkSignature {
+        let mut h = [1.0; BINS];
+        let width = max_range / BINS as f64;
+        for &r in ranges {
+            if !r.is_finite() {
+                continue;
+            }
+            let bin = ((r.max(0.0) / width) as usize).min(BINS - 1);
+            h[bin] += 1.0;
+        }
+        LandmarkSignature(normalised(h))
+    }
+
+    pub fn bins(&self) -> &Histogram {
+        &self.0
+    }
+}
+
+fn normalised(mut h: Histogram) -> Histogram {
+    let s: f64 = h.iter().sum();
+    if s > 0.0 && s.is_finite() {
+        for v in &mut h {
+            *v /= s;
+        }
+    } else {
+        h = [1.0 / BINS as f64; BINS];
+    }
+    h
+}
+
+/// Eq. 6 of 002: Cov_f[p, q] = Σ_i (p_i − p̄)(q_i − q̄) / S over the S = 6 bins.
+pub fn covariance(p: &Histogram, q: &Histogram) -> f64 {
+    let pm = p.iter().sum::<f64>() / BINS as f64;
+    let qm = q.iter().sum::<f64>() / BINS as f64;
+    p.iter()
+        .zip(q)
+        .map(|(a, b)| (a - pm) * (b - qm))
+        .sum::<f64>()
+        / BINS as f64
+}
+
+/// The covariance error γ between a posterior `p` and a node's signature `s`, built from the
+/// covariance of eq. 6: γ = Cov[p, p] − 2·Cov[p, s] + Cov[s, s] (= Cov[p − s, p − s]).
+///
+/// The paper thresholds a "covariance error" that "diminishes" as the robot approaches the
+/// landmark (§III-B, §IV-B, Fig. 4c) but prints only the cross-covariance; the cross term
+/// alone grows with similarity and depends on how peaked the histograms are, so Atrium uses
+/// the expansion above, which is zero exactly when the posterior equals the signature and
+/// grows with every difference between them.
+pub fn covariance_error(p: &Histogram, s: &Histogram) -> f64 {
+    (covariance(p, p) - 2.0 * covariance(p, s) + covariance(s, s)).max(0.0)
+}
+
+/// The recursive Bayesian model of one node (002 eq. 1–4).
+///
+/// States x_z are the six bins. At every scan:
+/// - prior (eq. 2): the current observation h_t, combined with the posterior fed back from the
+///   previous scan: prior_t ∝ h_t^w · post_{t−1}^(1−w), with `observation_weight` w. The paper
+///   says both "the prior is the current landmark observation" and "the prior is updated
+///   recursively with the posterior"; a weighted geometric combination is both, and w < 1
+///   lets past scans smooth the laser noise without the posterior forgetting where the
+///   robot is now (w = 1 would drop the feedback, w → 0 would freeze the first scan). The
+///   feedback carries the conditional along, so the posterior leans on it as c^(1/w): the
+///   default w = 0.8 keeps that lean mild, so that a different landmark stays different;
+/// - posterior (eq. 1): post_t(x) = prior_t(x) · c(x) / Σ_x prior_t(x) · c(x), with c the
+///   conditional (the node's training observations, eq. 3) and the sum the evidence (eq. 4).
+///
+/// With the same observation h repeated, the posterior converges to ∝ h · c^(1/w); the node's
+/// signature ([`RecursiveLandmarkModel::signature`]) is that limit for h = c: the posterior the
+/// recursion settles on when the robot sees exactly what it saw at the node in training.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecursiveLandmarkModel {
+    conditional: Histogram,
+    signature: Histogram,
+    weight: f64,
+    posterior: Histogram,
+    steps: usize,
+}
+
+impl RecursiveLandmarkModel {
+    /// `conditional` must be a positive histogram; `observation_weight` in (0, 1].
+    pub fn new(conditional: Histogram, observation_weight: f64) -> RecursiveLandmarkModel {
+        let conditional = normalised(conditional);
+        let power = 1.0 + 1.0 / observation_weight;
+        let signature = normalised(conditional.map(|c| c.powf(power)));
+        RecursiveLandmarkModel {
+            conditional,
+            signature,
+            weight: observation_weight,
+            posterior: [1.0 / BINS as f64; BINS],
+            steps: 0,
+        }
+    }
+
+    /// Forgets every observation: the posterior is uniform again.
+    pub fn reset(&mut self) {
+        self.posterior = [1.0 / BINS as f64; BINS];
+        self.steps = 0;
+    }
+
+    /// One recursion step with an observed signature; returns the new posterior.
+    pub fn update(&mut self, observation: &Histogram) -> &Histogram {
+        let w = self.weight;
+        let mut post = [0.0; BINS];
+        for i in 0..BINS {
+            let prior = observation[i].powf(w) * self.posterior[i].powf(1.0 - w);
+            post[i] = prior * self.conditional[i];
+        }
+        // normalised() divides by the evidence of eq. 4.
+        self.posterior = normalised(post);
+        self.steps += 1;
+        &self.posterior
+    }
+
+    pub fn posterior(&self) -> &Histogram {
+        &self.posterior
+    }
+
+    pub fn conditional(&self) -> &Histogram {
+        &self.conditional
+    }
+
+    pub fn signature(&self) -> &Histogram {
+        &self.signature
+    }
+
+    /// Observations since the last reset.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// γ of the current posterior against the node's signature.
+    pub fn gamma(&self) -> f64 {
+        covariance_error(&self.posterior, &self.signature)
+    }
+
+    /// γ once the recursion has settled on an observation seen over and over (the posterior
+    /// ∝ h · c^(1/w)): what a robot standing still at that spot ends up with.
+    pub fn settled_gamma(&self, observation: &Histogram) -> f64 {
+        let p = 1.0 / self.weight;
+        let mut post = [0.0; BINS];
+        for i in 0..BINS {
+            post[i] = observation[i] * self.conditional[i].powf(p);
+        }
+        covariance_error(&normalised(post), &self.signature)
+    }
+}
+
+/// Parameters of the landmark filter (`[[localizers]] kind = "landmark_filter"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LandmarkFilterParams {
+    /// ρ, m: a node can be verified only within this radius of it (002 §III-C, §IV-A: 250 mm).
+    pub rho: f64,
+    /// Scans after each node during which no node is verified (002 §IV-B: the first 30 time
+    /// steps, one per 100 ms scan).
+    pub warmup_steps: usize,
+    /// w of [`RecursiveLandmarkModel`], in (0, 1].
+    pub observation_weight: f64,
+    /// γ_n = margin × the largest γ seen inside ρ of node n in the training run (after the
+    /// warm-up); a margin > 1 leaves room for the run's own laser noise.
+    pub gamma_margin: f64,
+    /// Upper edge of the histogram, m; 0 means the laser's own maximum range.
+    pub histogram_range: f64,
+    /// The laser whose scans are used; empty means the robot's first laser.
+    pub laser: String,
+    /// Radius around a node from which the training scans build its model (conditional and
+    /// γ_n), m; 0 means ρ/2. Smaller than ρ on purpose: ρ bounds where the odometry pose
+    /// must be for the test to be made, the model radius where the landmark must really be
+    /// seen from. A node verified at the rim of ρ leaves the pose off by ρ, and that offset
+    /// is carried into the next leg (Table I resets x, y to the node); recognising the node
+    /// only near its centre keeps the offsets from adding up from node to node.
+    pub model_radius: f64,
+}
+
+impl Default for LandmarkFilterParams {
+    fn default() -> Self {
+        Self {
+            rho: 0.25,
+            warmup_steps: 30,
+            observation_weight: 0.8,
+            gamma_margin: 1.5,
+            histogram_range: 0.0,
+            laser: String::new(),
+            model_radius: 0.0,
+        }
+    }
+}
+
+impl LandmarkFilterParams {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.rho.is_finite() && self.rho > 0.0) {
+            return Err(format!(
+                "rho: the node radius must be a positive number of metres, got {}",
+                self.rho
+            ));
+        }
+        if !(self.observation_weight.is_finite()
+            && self.observation_weight > 0.0
+            && self.observation_weight <= 1.0)
+        {
+            return Err(format!(
+                "observation_weight: must lie in (0, 1], got {}",
+                self.observation_weight
+            ));
+        }
+        if !(self.gamma_margin.is_finite() && self.gamma_margin >= 1.0) {
+            return Err(format!(
+                "gamma_margin: must be >= 1, got {}",
+                self.gamma_margin
+            ));
+        }
+        if !(self.model_radius.is_finite()
+            && self.model_radius >= 0.0
+            && self.model_radius <= self.rho)
+        {
+            return Err(format!(
+                "model_radius: must lie in [0, rho] (0: rho / 2), got {}",
+                self.model_radius
+            ));
+        }
+        if !(self.histogram_range.is_finite() && self.histogram_range >= 0.0) {
+            return Err(format!(
+                "histogram_range: must be >= 0 (0: the laser's range), got {}",
+                self.histogram_range
+            ));
+        }
+        Ok(())
+    }
+
+    /// The model radius in metres (`model_radius`, or ρ/2 when 0).
+    pub fn model_radius(&self) -> f64 {
+        if self.model_radius > 0.0 {
+            self.model_radius
+        } else {
+            0.5 * self.rho
+        }
+    }
+
+    fn max_range(&self, laser_max: f64) -> f64 {
+        if self.histogram_range > 0.0 {
+            self.histogram_range
+        } else {
+            laser_max
+        }
+    }
+}
+
+/// One scan of the training run: the robot's true pose when it was taken, the node the robot
+/// was heading for, and the ranges.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainingScan {
+    pub pose: Pose2,
+    pub target: usize,
+    pub ranges: Vec<f64>,
+    pub range_max: f64,
+}
+
+/// What the training run taught about one node (the feature set of 002 eq. 5 and 7).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeModel {
+    pub node: [f64; 2],
+    /// Conditional p(z_{1:n−1} | x_z): the mean signature of the training scans within the
+    /// model radius.
+    pub conditional: Histogram,
+    /// γ_n: verify when γ falls below this.
+    pub gamma_n: f64,
+    /// Largest γ within the model radius (teach run after the warm-up, and survey).
+    pub gamma_inside_max: f64,
+    /// Smallest γ farther than 2ρ from the node after the warm-up, in training (None when the
+    /// leg never was): γ_n below it means the landmark alone tells the node apart.
+    pub gamma_outside_min: Option<f64>,
+    /// Training scans within the model radius (teach run and survey).
+    pub scans_inside: usize,
+}
+
+/// Learns every node's model from a training run (002 §III-A, §IV-B).
+///
+/// `scans` is the teach run in time order; `survey` holds extra scans taken inside ρ of the
+/// nodes (for instance on a small grid around each node at the approach heading), so that
+/// the model covers the whole disk a robot may cross and not only the teach run's line.
+/// - The conditional: the mean signature of every scan within the model radius
+///   ([`LandmarkFilterParams::model_radius`], ρ/2 by default) of the node taken while heading
+///   for it (teach run and survey).
+/// - γ_n = `gamma_margin` × the largest γ seen within the model radius: replaying the teach
+///   run through the recursion exactly as the filter will (reset at each node, warm-up),
+///   and, for the survey scans, the γ the recursion settles on at each spot.
+pub fn train(
+    nodes: &[[f64; 2]],
+    scans: &[TrainingScan],
+    survey: &[TrainingScan],
+    params: &LandmarkFilterParams,
+) -> Result<Vec<NodeModel>, LocalizationError> {
+    params
+        .validate()
+        .map_err(LocalizationError::InvalidParameter)?;
+    if nodes.is_empty() {
+        return Err(LocalizationError::InvalidParameter(
+            "route.nodes: the node list is empty".into(),
+        ));
+    }
+    let near = |s: &TrainingScan, n: usize, r: f64| {
+        (s.pose.x - nodes[n][0]).hypot(s.pose.y - nodes[n][1]) <= r
+    };
+    let r_model = params.model_radius();
+    let mut models = Vec::with_capacity(nodes.len());
+    for (n, node) in nodes.iter().enumerate() {
+        let mut sum = [0.0; BINS];
+        let mut count = 0;
+        for s in scans
+            .iter()
+            .chain(survey)
+            .filter(|s| s.target == n && near(s, n, r_model))
+        {
+            let h = LandmarkSignature::from_ranges(&s.ranges, params.max_range(s.range_max));
+            for (a, b) in sum.iter_mut().zip(h.bins()) {
+                *a += b;
+            }
+            count += 1;
+        }
+        if count == 0 {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "training: no scan was taken within the model radius {} m (rho = {} m) of node \
+                 {n} ({:?}); the training run did not reach it",
+                r_model, params.rho, node
+            )));
+        }
+        let mut model = RecursiveLandmarkModel::new(normalised(sum), params.observation_weight);
+        // Replay the scans heading for node n, leg by leg, as the filter will see them.
+        let mut inside_max: Option<f64> = None;
+        let mut outside_min: Option<f64> = None;
+        let mut prev_target = usize::MAX;
+        for s in scans {
+            if s.target != prev_target {
+                model.reset();
+                prev_target = s.target;
+            }
+            if s.target != n {
+                continue;
+            }
+            let h = LandmarkSignature::from_ranges(&s.ranges, params.max_range(s.range_max));
+            model.update(h.bins());
+            if model.steps() <= params.warmup_steps {
+                continue;
+            }
+            let g = model.gamma();
+            if near(s, n, r_model) {
+                inside_max = Some(inside_max.map_or(g, |m| m.max(g)));
+            } else if !near(s, n, 2.0 * params.rho) {
+                outside_min = Some(outside_min.map_or(g, |m| m.min(g)));
+            }
+        }
+        for s in survey
+            .iter()
+            .filter(|s| s.target == n && near(s, n, r_model))
+        {
+            let h = LandmarkSignature::from_ranges(&s.ranges, params.max_range(s.range_max));
+            let g = model.settled_gamma(h.bins());
+            inside_max = Some(inside_max.map_or(g, |m| m.max(g)));
+        }
+        let inside_max = inside_max.ok_or_else(|| {
+            LocalizationError::InvalidParameter(format!(
+                "training: the leg to node {n} ({node:?}) reaches the node only within the first \
+                 {} scans (warmup_steps); lengthen the leg or lower warmup_steps",
+                params.warmup_steps
+            ))
+        })?;
+        models.push(NodeModel {
+            node: *node,
+            conditional: *model.conditional(),
+            gamma_n: params.gamma_margin * inside_max,
+            gamma_inside_max: inside_max,
+            gamma_outside_min: outside_min,
+            scans_inside: count,
+        });
+    }
+    Ok(models)
+}
+
+/// What the filter did at a node.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NodeEvent {
+    pub node: usize,
+    pub stamp: f64,
+    /// True: verified by the landmark (Algorithm 1); false: reached by odometry alone.
+    pub verified: bool,
+    /// γ at that moment (NaN when no scan had been seen on the leg).
+    pub gamma: f64,
+}
+
+/// Node-based odometry with landmark verification (002 Table I and Algorithm 1) as a
+/// [`Localizer`]: the pose is the odometry carried along the node list, and its x, y are set to
+/// a node when the node is verified (or, failing that, reached by odometry: Table I update()).
+/// The heading is never reset (Table I resets x and y only).
+#[derive(Debug, Clone)]
+pub struct LandmarkFilter {
+    name: String,
+    params: LandmarkFilterParams,
+    gamma_d: f64,
+    models: Vec<NodeModel>,
+    recursion: Vec<RecursiveLandmarkModel>,
+    pose: Pose2,
+    stamp: f64,
+    next: usize,
+    leg: Option<Leg>,
+    gamma: f64,
+    /// Distance and rotation since the last node, for the covariance.
+    since_node: (f64, f64),
+    pending: Option<usize>,
+    events: Vec<NodeEvent>,
+}
+
+impl LandmarkFilter {
+    /// `gamma_d` must be the node controller's (so the filter and the controller agree on
+    /// when odometry reached a node); `start` is the start pose of the route.
+    pub fn new(
+        name: &str,
+        params: LandmarkFilterParams,
+        models: Vec<NodeModel>,
+        start: Pose2,
+        gamma_d: f64,
+    ) -> Result<LandmarkFilter, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        if models.is_empty() {
+            return Err(LocalizationError::InvalidParameter(
+                "route.nodes: the node list is empty".into(),
+            ));
+        }
+        if !(gamma_d.is_finite() && gamma_d > 0.0) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "gamma_d must be > 0, got {gamma_d}"
+            )));
+        }
+        if !start.is_finite() {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "start pose must be finite, got {start:?}"
+            )));
+        }
+        let recursion = models
+            .iter()
+            .map(|m| RecursiveLandmarkModel::new(m.conditional, params.observation_weight))
+            .collect();
+        let leg = Some(Leg {
+            from: [start.x, start.y],
+            node: models[0].node,
+        });
+        Ok(LandmarkFilter {
+            name: name.to_owned(),
+            params,
+            gamma_d,
+            models,
+            recursion,
+            pose: start,
+            stamp: 0.0,
+            next: 0,
+            leg,
+            gamma: f64::NAN,
+            since_node: (0.0, 0.0),
+            pending: None,
+            events: Vec::new(),
+        })
+    }
+
+    pub fn models(&self) -> &[NodeModel] {
+        &self.models
+    }
+
+    pub fn events(&self) -> &[NodeEvent] {
+        &self.events
+    }
+
+    /// Index of the node being approached (the node count when the route is done).
+    pub fn next_node(&self) -> usize {
+        self.next
+    }
+
+    /// γ after the latest scan (NaN before the first scan of a leg).
+    pub fn gamma(&self) -> f64 {
+        self.gamma
+    }
+
+    /// Table I update(): x = x_n, y = y_n, next node.
+    fn arrive(&mut self, verified: bool) {
+        let node = self.models[self.next].node;
+        self.events.push(NodeEvent {
+            node: self.next,
+            stamp: self.stamp,
+            verified,
+            gamma: self.gamma,
+        });
+        if verified {
+            self.pending = Some(self.next);
+        }
+        self.pose.x = node[0];
+        self.pose.y = node[1];
+        self.since_node = (0.0, 0.0);
+        self.recursion[self.next].reset();
+        self.next += 1;
+        self.gamma = f64::NAN;
+        self.leg = self.models.get(self.next).map(|m| Leg {
+            from: node,
+            node: m.node,
+        });
+    }
+}
+
+impl Localizer for LandmarkFilter {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn predict(&mut self, delta: &OdometryDelta) {
+        if !delta.from.is_finite() || !delta.to.is_finite() {
+            return;
+        }
+        let step = delta.from.between(&delta.to);
+        self.pose = self.pose.compose(&step);
+        self.since_node.0 += step.x.hypot(step.y);
+        self.since_node.1 += normalize_angle(step.theta).abs();
+        self.stamp = delta.stamp;
+        if let Some(leg) = self.leg {
+            if leg.reached(&self.pose, self.gamma_d) {
+                self.arrive(false);
+            }
+        }
+    }
+
+    fn update(&mut self, reading: &Reading) {
+        let Reading::Laser(scan) = reading else {
+            return;
+        };
+        if !self.params.laser.is_empty() && scan.sensor != self.params.laser {
+            return;
+        }
+        let Some(leg) = self.leg else { return };
+        self.stamp = scan.stamp;
+        let h = LandmarkSignature::from_ranges(&scan.ranges, self.params.max_range(scan.range_max));
+        let model = &mut self.recursion[self.next];
+        model.update(h.bins());
+        self.gamma = model.gamma();
+        // Algorithm 1 line 12: the node is within ρ of the pose, and γ < γ_n — once the first
+        // noisy steps are over (§IV-B).
+        if model.steps() > self.params.warmup_steps
+            && leg.current(&self.pose) <= self.params.rho
+            && self.gamma < self.models[self.next].gamma_n
+        {
+            self.arrive(true);
+        }
+    }
+
+    /// Covariance: a node fixes the position to within ρ (the verification radius), and
+    /// odometry drift then grows with the distance and rotation since (the same rates as
+    /// [`crate::DriftModel`]'s defaults).
+    fn estimate(&self) -> Estimate {
+        let d = crate::DriftModel::default();
+        let s_xy = self.params.rho + d.k_d * self.since_node.0;
+        let s_th = d.k_theta * self.since_node.0 + d.k_r * self.since_node.1;
+        Estimate {
+            stamp: self.stamp,
+            pose: self.pose,
+            covariance: Matrix3::from_diagonal(&Vector3::new(
+                s_xy * s_xy,
+                s_xy * s_xy,
+                s_th * s_th,
+            )),
+        }
+    }
+
+    fn take_node_verification(&mut self) -> Option<usize> {
+        self.pending.take()
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests;
