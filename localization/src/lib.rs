@@ -1,18 +1,37 @@
 //! Estimators. They see readings and maps exported from `worlds`, never the simulator.
 
+pub mod appearance;
+pub mod cgr;
+pub mod covariance_monitor;
 pub mod dead_reckoning;
+pub mod ekf_slam;
+pub mod em_pca;
 pub mod error;
+pub mod fspf;
+pub mod gp;
 pub mod kld;
+pub mod landmark_filter;
 pub mod likelihood_field;
+pub mod line_map;
 pub mod localizer;
 pub mod mcl;
 pub mod motion;
+pub mod pca;
 pub mod resampling;
+pub mod wifi_graph;
+pub mod wifi_mcl;
 
+pub use cgr::{Cgr, CgrParams};
 pub use dead_reckoning::{DeadReckoning, DriftModel};
 pub use error::LocalizationError;
+pub use fspf::{FspfParams, PlaneFilter, PlaneFiltered};
 pub use kld::{kld_bound, BinSet};
+pub use landmark_filter::{
+    LandmarkFilter, LandmarkFilterParams, LandmarkSignature, NodeModel, RecursiveLandmarkModel,
+    TrainingScan,
+};
 pub use likelihood_field::{LikelihoodField, LikelihoodFieldParams};
+pub use line_map::LineMap;
 pub use localizer::{Estimate, Localizer, OdometryDelta};
 pub use mcl::{InitialBelief, Mcl, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};

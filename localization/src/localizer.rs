@@ -28,4 +28,15 @@ pub trait Localizer: Send {
     /// Measurement update; readings a localizer does not use are ignored.
     fn update(&mut self, reading: &Reading);
     fn estimate(&self) -> Estimate;
+    /// The concrete localizer, for callers that report kind-specific diagnostics (the
+    /// EKF-SLAM map and covariance monitor) by downcasting. `None` unless a localizer opts in.
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
+    /// A node of a node route this localizer has just verified (002 Algorithm 1), taken once:
+    /// the runner passes it to the node controller, which stops and resets its pose to the
+    /// node. Localizers that verify nothing keep this default.
+    fn take_node_verification(&mut self) -> Option<usize> {
+        None
+    }
 }

@@ -405,6 +405,8 @@ impl Default for OdometrySpec {
 pub struct RobotSensors {
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,
+    /// The WiFi scanner (`[wifi]`), if the robot has one.
+    pub wifi: Option<crate::wifi::WifiSpec>,
 }
 
 /// The sensor file's layout, for writing it back.
@@ -412,6 +414,8 @@ pub struct RobotSensors {
 struct SensorFile<'a> {
     odometry: &'a OdometrySpec,
     laser: &'a [LaserSpec],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    wifi: &'a Option<crate::wifi::WifiSpec>,
 }
 
 impl RobotSensors {
@@ -441,11 +445,14 @@ impl RobotSensors {
         let table: toml::Table = text
             .parse()
             .map_err(|e: toml::de::Error| invalid(format!("TOML: {e}")))?;
-        if let Some(key) = table.keys().find(|k| *k != "odometry" && *k != "laser") {
+        if let Some(key) = table
+            .keys()
+            .find(|k| *k != "odometry" && *k != "laser" && *k != "wifi")
+        {
             return Err(RobotError::Field {
                 file: path.to_path_buf(),
                 field: key.clone(),
-                msg: "unknown key (expected odometry, laser)".into(),
+                msg: "unknown key (expected odometry, laser, wifi)".into(),
             });
         }
         let odometry = match table.get("odometry") {
@@ -489,7 +496,23 @@ impl RobotSensors {
                 )))
             }
         }
-        Ok(RobotSensors { odometry, lasers })
+        let wifi = match table.get("wifi") {
+            None => None,
+            Some(toml::Value::Table(t)) => {
+                Some(crate::wifi::WifiSpec::from_table(t, "wifi").map_err(invalid)?)
+            }
+            Some(v) => {
+                return Err(invalid(format!(
+                    "wifi: expected a table ([wifi]), got {}",
+                    type_name(v)
+                )))
+            }
+        };
+        Ok(RobotSensors {
+            odometry,
+            lasers,
+            wifi,
+        })
     }
 
     /// The sensor file text for these sensors (every field explicit, no presets), which
@@ -498,6 +521,7 @@ impl RobotSensors {
         toml::to_string(&SensorFile {
             odometry: &self.odometry,
             laser: &self.lasers,
+            wifi: &self.wifi,
         })
     }
 

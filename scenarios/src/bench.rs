@@ -6,7 +6,7 @@ use crate::scenario::Scenario;
 use serde_json::{json, Value};
 use std::time::Instant;
 
-pub const WHAT: [&str; 3] = ["all", "corridor_tracking", "laser"];
+pub const WHAT: [&str; 4] = ["all", "corridor_tracking", "laser", "empca"];
 
 fn machine() -> Value {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
@@ -86,6 +86,10 @@ pub fn run(what: &str) -> Result<Value, String> {
     }
     if what == "all" || what == "laser" {
         doc.insert("laser".into(), laser()?);
+    }
+    if what == "all" || what == "empca" {
+        let b = crate::bench_appearance::EmPcaBench::default();
+        doc.insert("empca".into(), crate::bench_appearance::empca(&b)?);
     }
     if doc.len() == 1 {
         return Err(format!(

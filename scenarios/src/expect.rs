@@ -10,6 +10,7 @@
 //! - `[expect.L.regions.<name>]` / `[expect.L.region_kinds.<kind>]`: `<stat>_max` / `_min` there
 //! - `[[expect.L.ratios]] numerator = "<path>", denominator = "<path>", min = .., max = ..`
 //! - `[[expect.L.compare]] metric = "<path>", other = "<localizer>", max_ratio = .., min_ratio = ..`
+//! - `[expect.L.slam]`: EKF-SLAM map and covariance-monitor checks, documented in `slam.rs`
 //!
 //! A metric path is `position_error.<stat>`, `heading_error.<stat>`, `final_position_error`,
 //! `converged_after_s`, `after_convergence.<stat>`, `recovered_after_s`, `mean_nees_xy`,
@@ -263,6 +264,10 @@ pub fn parse_expectations(
                             }
                         }
                     }
+                }
+                // Checked here for typos, evaluated by the runner from the SLAM report.
+                "slam" => {
+                    crate::slam::check_table(v, file, &field)?;
                 }
                 "converged_within_s" => list.push(Expectation::Bound {
                     metric: "converged_after_s".into(),

@@ -2,19 +2,27 @@
 //! reports (tables, JSON, SVG/PNG pictures, TUM trajectories) and benchmarks. The `atrium`
 //! binary in `main.rs` is a thin shell over this library.
 
+pub mod appearance_lab;
 pub mod bench;
+pub mod bench_appearance;
+pub mod cgr_localizers;
+pub mod dataset;
 pub mod error;
 pub mod expect;
 pub mod inspect;
 pub mod localizers;
 pub mod metrics;
+pub mod node_experiment;
 pub mod output;
 pub mod plot;
 pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod seeds;
+pub mod slam;
+pub mod slam_plot;
 pub mod tum;
+pub mod wifi_training;
 
 pub use error::ScenarioError;
 pub use runner::{run_scenario, RunOptions, RunResult};

@@ -13,9 +13,16 @@ use atrium_worlds::OccupancyGrid;
 #[derive(Default)]
 pub struct SharedMaps {
     grid: Option<OccupancyGrid>,
+    vector: Option<atrium_worlds::VectorMap>,
 }
 
 impl SharedMaps {
+    /// The vector map (wall faces and pillars as segments; glass per `[map] include_glass`).
+    pub fn vector_map(&mut self, scenario: &Scenario) -> &atrium_worlds::VectorMap {
+        self.vector
+            .get_or_insert_with(|| scenario.world.vector_map(scenario.map.include_glass))
+    }
+
     /// The occupancy grid of the scenario's `[map]` settings.
     pub fn occupancy_grid(&mut self, scenario: &Scenario) -> &OccupancyGrid {
         self.grid.get_or_insert_with(|| {
@@ -68,10 +75,39 @@ pub fn build_localizer(
                 .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
             Ok(Box::new(mcl))
         }
+        "ekf_slam" => {
+            use atrium_localization::ekf_slam::{EkfSlam, EkfSlamParams};
+            let mut params: EkfSlamParams = toml::Value::Table(spec.params.clone())
+                .try_into()
+                .map_err(|e: toml::de::Error| {
+                    ScenarioError::field(file, &field, e.message().to_string())
+                })?;
+            // The filter assumes the detector's noise unless the file says otherwise.
+            if let Some(d) = scenario.landmark_detectors.first() {
+                params.sigma_range.get_or_insert(d.sigma_range);
+                params.sigma_bearing.get_or_insert(d.sigma_bearing);
+            }
+            if scenario.landmark_detectors.is_empty() {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("{field}.kind"),
+                    "ekf_slam needs point features: add a [landmark_detector] table",
+                ));
+            }
+            let slam = EkfSlam::new(&spec.name, params, scenario.start)
+                .map_err(|msg| ScenarioError::field(file, &field, msg))?;
+            Ok(Box::new(slam))
+        }
+        "cgr_laser" | "cgr_depth" => crate::cgr_localizers::build(spec, scenario, maps, seed),
+        "landmark_filter" => crate::node_experiment::train_landmark_filter(spec, scenario),
+        "wifi" => {
+            let grid = maps.occupancy_grid(scenario);
+            crate::wifi_training::build_wifi_localizer(spec, scenario, grid, seed)
+        }
         other => Err(ScenarioError::field(
             file,
             format!("{field}.kind"),
-            format!("unknown localizer kind {other:?} (known: mcl, dead_reckoning)"),
+            format!("unknown localizer kind {other:?} (known: mcl, dead_reckoning, ekf_slam, cgr_laser, cgr_depth, landmark_filter, wifi)"),
         )),
     }
 }

@@ -20,6 +20,16 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a node-route scenario several times and print its node-error table (Table II of
+    /// 002): per node and run, mm, for the landmark filter and every other localizer.
+    Nodes {
+        scenario: PathBuf,
+        /// Number of runs (seeds seed, seed+1, ...); default: `[node_experiment] runs`.
+        #[arg(long)]
+        runs: Option<usize>,
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a scenario and score every localizer against ground truth.
     Run {
         scenario: PathBuf,
@@ -43,13 +53,54 @@ enum Command {
         #[command(subcommand)]
         what: ExportWhat,
     },
+    /// Run a scenario and record every sensor stream, ground truth and estimate to MCAP.
+    Record {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
+        /// Replace the scenario's seed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Print one JSON document (the run's report plus the recording's size).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Feed a recording to the localizers and score them against its ground truth.
+    Replay {
+        file: PathBuf,
+        /// World, map, localizers and expectations from this scenario instead of the
+        /// recording's metadata (needed for MCAP files not written by Atrium).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Run this localizer (NAME=KIND or KIND, default parameters) instead of the
+        /// scenario's; repeat for several.
+        #[arg(long = "localizer", value_parser = atrium_scenarios::dataset::cli::parse_localizer)]
+        localizers: Vec<(String, String)>,
+        #[arg(long)]
+        json: bool,
+        /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Measure whole-run throughput on this machine.
     Bench {
-        /// all, corridor_tracking or laser.
+        /// all, corridor_tracking, laser or empca.
         #[arg(default_value = "all")]
         what: String,
         #[arg(long)]
         json: bool,
+        /// empca: number of principal components d (default 20).
+        #[arg(long = "d")]
+        empca_d: Option<usize>,
+        /// empca: number of maps N (default 100).
+        #[arg(long = "n")]
+        empca_n: Option<usize>,
+        /// empca: pixels per map D (default 19200 = 160 × 120).
+        #[arg(long = "dim")]
+        empca_dim: Option<usize>,
+        /// empca: fraction of entries missing at random (default 0.2).
+        #[arg(long = "missing")]
+        empca_missing: Option<f64>,
     },
 }
 
@@ -127,6 +178,7 @@ fn run(
     let options = RunOptions {
         seed,
         progress: Some(&mut progress),
+        observer: None,
     };
     let result = run_scenario(&scenario, options)?;
     if let Some(b) = &bar {
@@ -149,6 +201,20 @@ fn run(
 
 fn main_inner(cli: Cli) -> Result<bool, BadInput> {
     match cli.command {
+        Some(Command::Nodes {
+            scenario,
+            runs,
+            json,
+        }) => {
+            let scenario = Scenario::load(&scenario)?;
+            let exp = atrium_scenarios::node_experiment::run_experiment(&scenario, runs)?;
+            if json {
+                print_json(&serde_json::to_value(&exp)?)?;
+            } else {
+                print!("{}", exp.to_text());
+            }
+            Ok(exp.passed())
+        }
         None => run(atrium_scenarios::default_scenario(), None, false, None),
         Some(Command::Run {
             scenario,
@@ -196,10 +262,46 @@ fn main_inner(cli: Cli) -> Result<bool, BadInput> {
             }
             Ok(true)
         }
-        Some(Command::Bench { what, json }) => {
-            let doc = bench::run(&what)
-                .map_err(anyhow::Error::msg)
-                .context("atrium bench")?;
+        Some(Command::Record {
+            scenario,
+            output,
+            seed,
+            json,
+        }) => Ok(atrium_scenarios::dataset::cli::record_command(
+            &scenario, &output, seed, json,
+        )?),
+        Some(Command::Replay {
+            file,
+            scenario,
+            localizers,
+            json,
+            out,
+        }) => Ok(atrium_scenarios::dataset::cli::replay_command(
+            &file, scenario, localizers, json, out,
+        )?),
+        Some(Command::Bench {
+            what,
+            json,
+            empca_d,
+            empca_n,
+            empca_dim,
+            empca_missing,
+        }) => {
+            let doc = if what == "empca" {
+                let base = atrium_scenarios::bench_appearance::EmPcaBench::default();
+                let b = atrium_scenarios::bench_appearance::EmPcaBench {
+                    d: empca_d.unwrap_or(base.d),
+                    n: empca_n.unwrap_or(base.n),
+                    dim: empca_dim.unwrap_or(base.dim),
+                    missing: empca_missing.unwrap_or(base.missing),
+                    ..base
+                };
+                atrium_scenarios::bench_appearance::empca(&b)
+            } else {
+                bench::run(&what)
+            }
+            .map_err(anyhow::Error::msg)
+            .context("atrium bench")?;
             if json {
                 print_json(&doc)?;
             } else {

@@ -26,7 +26,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// Writes a run's files into `dir`: TUM trajectories (`ground_truth.tum`, `<localizer>.tum`),
 /// `metrics.json` (the `--json` document) and a picture per localizer
-/// (`trajectory_<localizer>.svg` / `.png`). Returns the paths written.
+/// (`trajectory_<localizer>.svg` / `.png`), plus, for EKF-SLAM localizers, the covariance
+/// pictures of `slam_plot` (`slam_<localizer>_<mode>_<frame>.svg` / `.png`). Returns the paths
+/// written.
 pub fn write_run(
     dir: &Path,
     world: &atrium_worlds::World,
@@ -58,6 +60,11 @@ pub fn write_run(
             format!("trajectory_{}.png", l.name),
             crate::plot::png(world, run, l)?,
         )?;
+        if let Some(slam) = &l.slam {
+            for (name, bytes) in crate::slam_plot::pictures(world, run, l, slam)? {
+                put(name, bytes)?;
+            }
+        }
     }
     let json =
         serde_json::to_string_pretty(&crate::report::to_json(run)).map_err(|e| e.to_string())?;

@@ -42,6 +42,7 @@ pub fn to_json(r: &RunResult) -> Value {
                     "recovered_after_s": rec,
                 })).collect::<Vec<_>>(),
                 "expectations": l.expectations,
+                "slam": l.slam.as_ref().map(crate::slam::to_json),
             })
         })
         .collect();
@@ -155,6 +156,11 @@ pub fn to_text(r: &RunResult) -> String {
             ev.1.at_s(),
             opt(*ev.0, " s")
         );
+    }
+    for l in &r.localizers {
+        if let Some(slam) = &l.slam {
+            s.push_str(&crate::slam::to_text(&l.name, slam));
+        }
     }
     let any = r.localizers.iter().any(|l| !l.expectations.is_empty());
     if any {

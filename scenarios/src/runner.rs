@@ -7,7 +7,7 @@ use crate::localizers::{build_localizer, SharedMaps};
 use crate::metrics::{self, LocalizerMetrics, Sample};
 use crate::scenario::{Event, Scenario};
 use crate::seeds::derive_seed;
-use atrium_localization::OdometryDelta;
+use atrium_localization::{Estimate, OdometryDelta};
 use atrium_robots::{Pose2, Reading};
 use atrium_sim::Simulation;
 use serde::Serialize;
@@ -20,6 +20,8 @@ pub struct RunOptions<'a> {
     pub seed: Option<u64>,
     /// Called now and then with (simulated time, scenario duration).
     pub progress: Option<&'a mut dyn FnMut(f64, f64)>,
+    /// Sees every instant of the run (the MCAP recorder).
+    pub observer: Option<&'a mut dyn RunObserver>,
 }
 
 /// One localizer's run.
@@ -40,6 +42,12 @@ pub struct LocalizerRun {
     /// Wall-clock seconds spent inside this localizer.
     #[serde(skip)]
     pub cpu_s: f64,
+    /// Map, covariance monitor and snapshots of an EKF-SLAM localizer.
+    #[serde(skip)]
+    pub slam: Option<crate::slam::SlamRun>,
+    /// What a landmark filter did at each node of a node route (empty otherwise).
+    #[serde(skip)]
+    pub node_events: Vec<atrium_localization::landmark_filter::NodeEvent>,
 }
 
 /// Wall-clock figures, kept apart from the results because they vary between runs.
@@ -87,20 +95,198 @@ fn nees_xy(err: [f64; 2], cov: &nalgebra::Matrix3<f64>) -> Option<f64> {
     Some((c * err[0] * err[0] - 2.0 * b * err[0] * err[1] + a * err[1] * err[1]) / det)
 }
 
+/// One instant of a reading stream: the readings stamped at it are in the caller's buffer.
+#[derive(Debug, Clone, Default)]
+pub struct Tick {
+    /// Stream time, s (sim time for a live run).
+    pub t: f64,
+    /// Ground truth at `t`, when the stream knows it (always for a live run; a recording
+    /// holds it only at the scoring instants).
+    pub truth: Option<Pose2>,
+    /// Whether the localizers are scored at this instant (then `truth` is `Some`).
+    pub score: bool,
+    /// Events that took effect just before this instant (a kidnapping moves the robot before
+    /// the step whose readings follow).
+    pub events: Vec<Event>,
+}
+
+/// What a stream knows about the whole run once it has ended.
+#[derive(Debug, Clone, Default)]
+pub struct StreamSummary {
+    pub sim_time_s: f64,
+    pub distance_m: f64,
+    pub route_completed: bool,
+    pub physics_steps: u64,
+    /// Seconds spent producing the stream (simulating, or decoding a recording).
+    pub source_s: f64,
+}
+
+/// A time-ordered stream of readings with ground truth: the live simulator
+/// ([`SimStream`]) or a recording (`dataset::replay`). The runner's consumption and scoring
+/// loop takes its input from either, which is what makes a replay score exactly like the
+/// live run it recorded.
+pub trait ReadingStream {
+    /// Clears `readings`, fills it with the next instant's readings in the order the
+    /// localizers must see them (odometry before the sensors of the same instant), and
+    /// returns that instant; `None` once the stream has ended.
+    fn next(&mut self, readings: &mut Vec<Reading>) -> Result<Option<Tick>, ScenarioError>;
+    /// Totals of the run, valid once `next` has returned `None`.
+    fn summary(&self) -> StreamSummary;
+    /// A localizer verified node `node` of a node route (002 Algorithm 1): a live robot stops
+    /// and resets its node controller's pose; a recording already holds what happened.
+    fn verify_node(&mut self, _node: usize) {}
+}
+
+/// Watches a run as it is consumed (the MCAP recorder is one). Called once per instant after
+/// the localizers have seen its readings, with their estimates at scoring instants.
+pub trait RunObserver {
+    fn instant(
+        &mut self,
+        tick: &Tick,
+        readings: &[Reading],
+        estimates: Option<&[Estimate]>,
+    ) -> Result<(), ScenarioError>;
+}
+
+/// The live stream: the scenario's simulation, stepped at `physics_hz`, its events applied on
+/// time, scored every `physics_hz / eval_hz` steps, until `duration_s` or `settle_s` after the
+/// route's end.
+pub struct SimStream<'a> {
+    scenario: &'a Scenario,
+    sim: Simulation,
+    dt: f64,
+    eval_every: f64,
+    next_eval: f64,
+    step: u64,
+    next_event: usize,
+    finished_at: Option<f64>,
+    distance: f64,
+    prev_gt: Pose2,
+    sim_s: f64,
+}
+
+impl<'a> SimStream<'a> {
+    /// The simulation of `scenario` with the simulator's stream derived from `seed`.
+    pub fn new(scenario: &'a Scenario, seed: u64) -> Result<Self, ScenarioError> {
+        let config = scenario.sim_config(derive_seed(seed, "sim"));
+        let mut sim = Simulation::new(&scenario.world, &scenario.robot, config)
+            .map_err(|e| ScenarioError::field(&scenario.file, "start.pose", e.to_string()))?;
+        match &scenario.node_route {
+            Some(route) => sim
+                .set_node_route(&route.nodes, route.params)
+                .map_err(|e| ScenarioError::field(&scenario.file, "route", e.to_string()))?,
+            None => sim.set_route(&scenario.waypoints),
+        }
+        let eval_every = scenario.physics_hz / scenario.eval_hz;
+        Ok(SimStream {
+            prev_gt: sim.ground_truth(),
+            scenario,
+            sim,
+            dt: 1.0 / scenario.physics_hz,
+            eval_every,
+            next_eval: eval_every,
+            step: 0,
+            next_event: 0,
+            finished_at: None,
+            distance: 0.0,
+            sim_s: 0.0,
+        })
+    }
+
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+}
+
+impl ReadingStream for SimStream<'_> {
+    fn next(&mut self, readings: &mut Vec<Reading>) -> Result<Option<Tick>, ScenarioError> {
+        let scenario = self.scenario;
+        readings.clear();
+        let t = self.sim.time();
+        if t >= scenario.duration_s - 0.5 * self.dt {
+            return Ok(None);
+        }
+        if let Some(done) = self.finished_at {
+            if t >= done + scenario.settle_s {
+                return Ok(None);
+            }
+        }
+        let mut events = Vec::new();
+        while let Some(ev) = scenario.events.get(self.next_event) {
+            if ev.at_s() > t {
+                break;
+            }
+            match ev {
+                Event::Kidnap { to, .. } => {
+                    self.sim.teleport(*to).map_err(|e| {
+                        ScenarioError::field(
+                            &scenario.file,
+                            format!("events[{}].to", self.next_event),
+                            e.to_string(),
+                        )
+                    })?;
+                    self.prev_gt = *to;
+                }
+            }
+            events.push(*ev);
+            self.next_event += 1;
+        }
+
+        let t0 = Instant::now();
+        let gt = self.sim.step(readings);
+        self.sim_s += t0.elapsed().as_secs_f64();
+        self.step += 1;
+        self.distance += self.prev_gt.distance(&gt);
+        self.prev_gt = gt;
+        if self.finished_at.is_none() && self.sim.route_finished() {
+            self.finished_at = Some(self.sim.time());
+        }
+        let score = self.step as f64 + 1e-9 >= self.next_eval;
+        if score {
+            self.next_eval += self.eval_every;
+        }
+        Ok(Some(Tick {
+            t: self.sim.time(),
+            truth: Some(gt),
+            score,
+            events,
+        }))
+    }
+
+    fn verify_node(&mut self, node: usize) {
+        self.sim.verify_node(node);
+    }
+
+    fn summary(&self) -> StreamSummary {
+        StreamSummary {
+            sim_time_s: self.sim.time(),
+            distance_m: self.distance,
+            route_completed: self.finished_at.is_some(),
+            physics_steps: self.step,
+            source_s: self.sim_s,
+        }
+    }
+}
+
 /// Runs a scenario to the end and scores every localizer.
-pub fn run_scenario(
+pub fn run_scenario(scenario: &Scenario, options: RunOptions) -> Result<RunResult, ScenarioError> {
+    let seed = options.seed.unwrap_or(scenario.seed);
+    let mut stream = SimStream::new(scenario, seed)?;
+    run_stream(scenario, seed, &mut stream, &scenario.events, options)
+}
+
+/// The consumption and scoring loop: every reading of `stream` goes to every localizer of
+/// `scenario` (built with seeds derived from `seed`), each scoring instant is scored against
+/// the stream's ground truth, and the expectations are checked. `events` are the events the
+/// stream's run went through (their times anchor the recovery metrics).
+pub fn run_stream(
     scenario: &Scenario,
+    seed: u64,
+    stream: &mut dyn ReadingStream,
+    events: &[Event],
     mut options: RunOptions,
 ) -> Result<RunResult, ScenarioError> {
     let started = Instant::now();
-    let seed = options.seed.unwrap_or(scenario.seed);
-    let file = &scenario.file;
-
-    let config = scenario.sim_config(derive_seed(seed, "sim"));
-    let mut sim = Simulation::new(&scenario.world, &scenario.robot, config)
-        .map_err(|e| ScenarioError::field(file, "start.pose", e.to_string()))?;
-    sim.set_route(&scenario.waypoints);
-
     let mut maps = SharedMaps::default();
     let mut localizers = Vec::with_capacity(scenario.localizers.len());
     for spec in &scenario.localizers {
@@ -113,59 +299,12 @@ pub fn run_scenario(
     let mut cpu = vec![0.0f64; n];
     let mut ground_truth = Vec::new();
     let mut regions = Vec::new();
+    let mut estimates: Vec<Estimate> = Vec::with_capacity(n);
 
-    let dt = 1.0 / scenario.physics_hz;
-    let eval_every = scenario.physics_hz / scenario.eval_hz;
-    let mut next_eval = eval_every;
-    let mut step: u64 = 0;
     let mut readings: Vec<Reading> = Vec::new();
     let mut last_odom: Option<Pose2> = None;
-    let mut next_event = 0;
-    let mut finished_at: Option<f64> = None;
-    let mut distance = 0.0;
-    let mut prev_gt = sim.ground_truth();
-    let mut sim_s = 0.0;
 
-    loop {
-        let t = sim.time();
-        if t >= scenario.duration_s - 0.5 * dt {
-            break;
-        }
-        if let Some(done) = finished_at {
-            if t >= done + scenario.settle_s {
-                break;
-            }
-        }
-        while let Some(ev) = scenario.events.get(next_event) {
-            if ev.at_s() > t {
-                break;
-            }
-            match ev {
-                Event::Kidnap { to, .. } => {
-                    sim.teleport(*to).map_err(|e| {
-                        ScenarioError::field(
-                            file,
-                            format!("events[{next_event}].to"),
-                            e.to_string(),
-                        )
-                    })?;
-                    prev_gt = *to;
-                }
-            }
-            next_event += 1;
-        }
-
-        let t0 = Instant::now();
-        readings.clear();
-        let gt = sim.step(&mut readings);
-        sim_s += t0.elapsed().as_secs_f64();
-        step += 1;
-        distance += prev_gt.distance(&gt);
-        prev_gt = gt;
-        if finished_at.is_none() && sim.route_finished() {
-            finished_at = Some(sim.time());
-        }
-
+    while let Some(tick) = stream.next(&mut readings)? {
         for r in &readings {
             match r {
                 Reading::Odometry(o) => {
@@ -193,32 +332,48 @@ pub fn run_scenario(
             }
         }
 
-        if step as f64 + 1e-9 >= next_eval {
-            next_eval += eval_every;
-            let now = sim.time();
-            ground_truth.push((now, gt));
-            regions.push(scenario.world.region_at([gt.x, gt.y]).map(|r| {
-                let kind = serde_json::to_value(r.kind)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_default();
-                (r.name.clone(), kind)
-            }));
-            for (i, l) in localizers.iter().enumerate() {
-                let est = l.estimate();
-                trajectories[i].push((now, est.pose));
-                samples[i].push(Sample {
-                    t: now,
-                    position_error: est.pose.distance(&gt),
-                    heading_error: est.pose.heading_error(&gt),
-                    nees_xy: nees_xy([est.pose.x - gt.x, est.pose.y - gt.y], &est.covariance),
-                });
-            }
-            if let Some(p) = options.progress.as_mut() {
-                p(now, scenario.duration_s);
+        // Closes the loop of a node route: the robot stops at a node the landmark verified.
+        for l in localizers.iter_mut() {
+            if let Some(node) = l.take_node_verification() {
+                stream.verify_node(node);
             }
         }
+
+        let scored = match (tick.score, tick.truth) {
+            (true, Some(gt)) => {
+                let now = tick.t;
+                ground_truth.push((now, gt));
+                regions.push(scenario.world.region_at([gt.x, gt.y]).map(|r| {
+                    let kind = serde_json::to_value(r.kind)
+                        .ok()
+                        .and_then(|v| v.as_str().map(str::to_string))
+                        .unwrap_or_default();
+                    (r.name.clone(), kind)
+                }));
+                estimates.clear();
+                for (i, l) in localizers.iter().enumerate() {
+                    let est = l.estimate();
+                    trajectories[i].push((now, est.pose));
+                    samples[i].push(Sample {
+                        t: now,
+                        position_error: est.pose.distance(&gt),
+                        heading_error: est.pose.heading_error(&gt),
+                        nees_xy: nees_xy([est.pose.x - gt.x, est.pose.y - gt.y], &est.covariance),
+                    });
+                    estimates.push(est);
+                }
+                if let Some(p) = options.progress.as_mut() {
+                    p(now, scenario.duration_s);
+                }
+                true
+            }
+            _ => false,
+        };
+        if let Some(obs) = options.observer.as_mut() {
+            obs.instant(&tick, &readings, scored.then_some(estimates.as_slice()))?;
+        }
     }
+    let summary = stream.summary();
 
     let expectations = expect::parse_expectations(scenario)?;
     let mut runs: Vec<LocalizerRun> = Vec::with_capacity(n);
@@ -229,8 +384,7 @@ pub fn run_scenario(
             scenario.metrics.converge_threshold_m,
             scenario.metrics.converge_hold_s,
         );
-        let recoveries = scenario
-            .events
+        let recoveries = events
             .iter()
             .map(|ev| {
                 metrics::converged_after(
@@ -252,6 +406,8 @@ pub fn run_scenario(
             expectations: Vec::new(),
             passed: true,
             cpu_s: cpu[i],
+            slam: crate::slam::SlamRun::of(localizers[i].as_ref(), scenario),
+            node_events: crate::node_experiment::node_events(localizers[i].as_ref()),
         });
     }
     for i in 0..runs.len() {
@@ -285,28 +441,35 @@ pub fn run_scenario(
                 })
                 .collect(),
         };
+        let mut results = results;
+        results.extend(crate::slam::evaluate(
+            scenario,
+            &runs[i].name,
+            runs[i].slam.as_ref(),
+            &runs[i].samples,
+        )?);
         runs[i].passed = results.iter().all(|r| r.passed);
         runs[i].expectations = results;
     }
 
     let wall_s = started.elapsed().as_secs_f64();
-    let sim_time_s = sim.time();
+    let sim_time_s = summary.sim_time_s;
     Ok(RunResult {
         scenario: scenario.name.clone(),
         seed,
         world: scenario.world.name.clone(),
         robot: scenario.robot.name.clone(),
         sim_time_s,
-        distance_m: distance,
-        route_completed: finished_at.is_some(),
-        events: scenario.events.clone(),
+        distance_m: summary.distance_m,
+        route_completed: summary.route_completed,
+        events: events.to_vec(),
         ground_truth,
         regions,
         timing: Timing {
             wall_s,
             real_time_factor: sim_time_s / wall_s.max(1e-9),
-            physics_steps: step,
-            sim_s,
+            physics_steps: summary.physics_steps,
+            sim_s: summary.source_s,
             localizers_s: runs.iter().map(|r| (r.name.clone(), r.cpu_s)).collect(),
         },
         localizers: runs,

@@ -32,6 +32,15 @@ struct ScenarioFile {
     sensors: Option<toml::Table>,
     #[serde(default)]
     odometry: Option<toml::Table>,
+    /// `[depth_cameras.<name>]`: depth cameras (opt-in; see `DepthCameraSpec::from_table`).
+    #[serde(default)]
+    depth_cameras: Option<toml::Table>,
+    /// `[landmark_detector]`: a pillar detector for EKF-SLAM (see `LandmarkDetectorSpec`).
+    #[serde(default)]
+    landmark_detector: Option<toml::Table>,
+    /// `[wifi]`: overrides of the robot's WiFi scanner (or one with defaults if it has none).
+    #[serde(default)]
+    wifi: Option<toml::Table>,
     #[serde(default)]
     map: MapSettings,
     #[serde(default)]
@@ -44,6 +53,8 @@ struct ScenarioFile {
     localizers: Vec<toml::Table>,
     #[serde(default)]
     expect: toml::Table,
+    #[serde(default)]
+    node_experiment: Option<toml::Table>,
 }
 
 fn default_physics_hz() -> f64 {
@@ -62,7 +73,17 @@ struct StartFile {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RouteFile {
+    #[serde(default)]
     waypoints: Vec<[f64; 2]>,
+    /// "waypoints" (default) or "nodes" (the node controller of 002 Table I).
+    #[serde(default)]
+    controller: Option<String>,
+    #[serde(default)]
+    nodes: Vec<[f64; 2]>,
+    #[serde(default)]
+    gamma_theta: Option<f64>,
+    #[serde(default)]
+    gamma_d: Option<f64>,
     /// Keep simulating this long after the last waypoint (lets estimates settle).
     #[serde(default)]
     settle_s: f64,
@@ -189,6 +210,13 @@ pub struct Scenario {
     pub controller: atrium_sim::ControllerParams,
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,
+    /// Depth cameras (from `[depth_cameras.<name>]`, e.g. `preset = "kinect"`,
+    /// `mount = "camera"`, `decimation = 4`); none unless the scenario asks.
+    pub depth_cameras: Vec<atrium_robots::DepthCameraSpec>,
+    /// Pillar detectors (from `[landmark_detector]`), for EKF-SLAM.
+    pub landmark_detectors: Vec<atrium_robots::LandmarkDetectorSpec>,
+    /// The WiFi scanner: the robot sensor file's `[wifi]`, overridden by the scenario's.
+    pub wifi: Option<atrium_robots::WifiSpec>,
     pub map: MapSettings,
     pub initial_belief: InitialBelief,
     pub events: Vec<Event>,
@@ -196,6 +224,11 @@ pub struct Scenario {
     pub localizers: Vec<LocalizerSpec>,
     /// `[expect.<localizer>]` tables, checked after the run.
     pub expect: toml::Table,
+    /// The node list when `[route] controller = "nodes"` (then `waypoints` holds the same
+    /// points, for pictures).
+    pub node_route: Option<crate::node_experiment::NodeRoute>,
+    /// `[node_experiment]`: the multi-run node table (`atrium nodes`).
+    pub node_experiment: Option<crate::node_experiment::NodeExperimentSettings>,
     /// The scenario file's text, kept for dataset metadata.
     pub text: String,
 }
@@ -285,7 +318,16 @@ impl Scenario {
         }
         check_finite(file, "start.pose", &raw.start.pose)?;
         let start = Pose2::new(raw.start.pose[0], raw.start.pose[1], raw.start.pose[2]);
-        if raw.route.waypoints.is_empty() {
+        let node_route = crate::node_experiment::parse_route(
+            file,
+            &world,
+            raw.route.controller.as_deref(),
+            &raw.route.waypoints,
+            &raw.route.nodes,
+            raw.route.gamma_theta,
+            raw.route.gamma_d,
+        )?;
+        if node_route.is_none() && raw.route.waypoints.is_empty() {
             return Err(ScenarioError::field(
                 file,
                 "route.waypoints",
@@ -382,6 +424,62 @@ impl Scenario {
                 ));
             }
         }
+
+        let mut landmark_detectors = Vec::new();
+        if let Some(t) = &raw.landmark_detector {
+            let spec = atrium_robots::LandmarkDetectorSpec::from_table(t, "landmark_detector")
+                .map_err(|msg| {
+                    // The message starts with the field path; split it off for the error.
+                    let (field, msg) = msg.split_once(": ").unwrap_or(("landmark_detector", &msg));
+                    ScenarioError::field(file, field, msg)
+                })?;
+            if robot.mount(&spec.mount).is_none() {
+                return Err(ScenarioError::field(
+                    file,
+                    "landmark_detector.mount",
+                    format!("robot {:?} has no link named {:?}", robot.name, spec.mount),
+                ));
+            }
+            landmark_detectors.push(spec);
+        }
+
+        let mut depth_cameras: Vec<atrium_robots::DepthCameraSpec> = Vec::new();
+        for (name, value) in raw.depth_cameras.iter().flatten() {
+            let field = format!("depth_cameras.{name}");
+            let mut table = value
+                .as_table()
+                .ok_or_else(|| ScenarioError::field(file, &field, "must be a table"))?
+                .clone();
+            table
+                .entry("name")
+                .or_insert_with(|| toml::Value::String(name.clone()));
+            let spec =
+                atrium_robots::DepthCameraSpec::from_table(&table, &field).map_err(|msg| {
+                    // The message starts with the field path; split it off for the error.
+                    let (f, m) = msg.split_once(": ").unwrap_or((&field, &msg));
+                    ScenarioError::field(file, f, m)
+                })?;
+            if robot.mount(&spec.mount).is_none() {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("{field}.mount"),
+                    format!("robot {:?} has no link named {:?}", robot.name, spec.mount),
+                ));
+            }
+            depth_cameras.push(spec);
+        }
+
+        let wifi = match (&raw.wifi, &robot_sensors.wifi) {
+            (None, base) => base.clone(),
+            (Some(t), base) => {
+                let spec = apply_overrides(&base.clone().unwrap_or_default(), t, file, "wifi")?;
+                spec.validate().map_err(|msg| {
+                    let (key, why) = msg.split_once(": ").unwrap_or(("", msg.as_str()));
+                    ScenarioError::field(file, format!("wifi.{key}"), why)
+                })?;
+                Some(spec)
+            }
+        };
 
         if !(raw.map.resolution.is_finite()
             && raw.map.resolution >= 0.01
@@ -541,6 +639,15 @@ impl Scenario {
             }
         }
 
+        let node_experiment = match &raw.node_experiment {
+            Some(t) => Some(crate::node_experiment::parse_settings(
+                file,
+                t,
+                &localizers,
+                node_route.as_ref(),
+            )?),
+            None => None,
+        };
         let scenario = Scenario {
             file: file.to_path_buf(),
             name: raw.name,
@@ -554,17 +661,25 @@ impl Scenario {
             physics_hz: raw.physics_hz,
             eval_hz: raw.eval_hz,
             start,
-            waypoints: raw.route.waypoints,
+            waypoints: match &node_route {
+                Some(r) => r.nodes.clone(),
+                None => raw.route.waypoints,
+            },
             settle_s: raw.route.settle_s,
             controller,
             odometry,
             lasers,
+            depth_cameras,
+            landmark_detectors,
+            wifi,
             map: raw.map,
             initial_belief,
             events,
             metrics: raw.metrics,
             localizers,
             expect: raw.expect,
+            node_route,
+            node_experiment,
             text: text.to_string(),
         };
         // Expectation keys are checked now, so a typo fails before a long run.
@@ -582,8 +697,11 @@ impl Scenario {
             start: self.start,
             odometry: self.odometry,
             lasers: self.lasers.clone(),
+            wifi: self.wifi.clone(),
             controller: self.controller,
             seed,
+            landmark_detectors: self.landmark_detectors.clone(),
+            depth_cameras: self.depth_cameras.clone(),
             ..atrium_sim::SimConfig::default()
         }
     }

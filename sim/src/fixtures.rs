@@ -63,19 +63,21 @@ pub fn pioneer_3dx_like() -> RobotModel {
     }
 }
 
-/// The two materials every fixture world has: `concrete` (opaque) and `glass` (reflects
-/// within 10° of normal incidence).
+/// The two materials every fixture world has: `concrete` (opaque, 12 dB per WiFi crossing)
+/// and `glass` (reflects within 10° of normal incidence, 2.5 dB per WiFi crossing).
 pub fn materials() -> Vec<Material> {
     vec![
         Material {
             name: "concrete".into(),
             laser: LaserBehaviour::Opaque,
+            wifi_attenuation_db: 12.0,
         },
         Material {
             name: "glass".into(),
             laser: LaserBehaviour::Glass {
                 reflect_within_deg: 10.0,
             },
+            wifi_attenuation_db: 2.5,
         },
     ]
 }
@@ -106,6 +108,10 @@ pub fn box_room(size_x: f64, size_y: f64, material: &str) -> World {
         ],
         pillars: vec![],
         regions: vec![],
+        access_points: vec![],
+        wifi: Default::default(),
+        boxes: Vec::new(),
+        lighting: Default::default(),
     }
 }
 

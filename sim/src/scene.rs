@@ -34,6 +34,8 @@ pub enum StaticKind {
     Wall(usize),
     /// Index into `World::pillars`.
     Pillar(usize),
+    /// Index into `World::boxes` (furniture).
+    Box(usize),
 }
 
 /// What a laser beam does at a material, precomputed for the ray caster.
@@ -62,6 +64,7 @@ fn encode_tag(kind: StaticKind, material: Option<usize>) -> u128 {
         StaticKind::Ceiling => (2, 0),
         StaticKind::Wall(i) => (3, i as u128),
         StaticKind::Pillar(i) => (4, i as u128),
+        StaticKind::Box(i) => (5, i as u128),
     };
     let m = material.map_or(0u128, |m| m as u128 + 1);
     k | (idx << 8) | (m << 72)
@@ -75,6 +78,7 @@ pub fn decode_tag(user_data: u128) -> Option<(StaticKind, Option<usize>)> {
         2 => StaticKind::Ceiling,
         3 => StaticKind::Wall(idx),
         4 => StaticKind::Pillar(idx),
+        5 => StaticKind::Box(idx),
         _ => return None,
     };
     let m = ((user_data >> 72) & u32::MAX as u128) as usize;
@@ -266,6 +270,27 @@ impl Scene {
         .user_data(encode_tag(StaticKind::Ceiling, None));
         physics.insert_collider(ceiling, None);
 
+        // Furniture last, so that the colliders of worlds without it keep their handles.
+        for (i, b) in world.boxes.iter().enumerate() {
+            let f = |s: &str| format!("boxes[{i}].{s}");
+            b.validate(world.ceiling_height)
+                .map_err(|(key, msg)| werr(f(key), msg))?;
+            let m = material_index(&b.material, f("material"))?;
+            let pose = Pose::from_parts(
+                vec3(b.center[0], b.center[1], 0.5 * b.size[2]),
+                Rotation::from_rotation_z(b.yaw as f32),
+            );
+            let c = ColliderBuilder::cuboid(
+                (0.5 * b.size[0]) as f32,
+                (0.5 * b.size[1]) as f32,
+                (0.5 * b.size[2]) as f32,
+            )
+            .position(pose)
+            .collision_groups(groups)
+            .user_data(encode_tag(StaticKind::Box(i), Some(m)));
+            obstacles.push((StaticKind::Box(i), physics.insert_collider(c, None)));
+        }
+
         // Colliders join the query structure only during a step; a zero-length step does
         // exactly that and nothing else, so rays work before the first real step.
         let dt = physics.integration_parameters.dt;
@@ -327,6 +352,7 @@ impl Scene {
                     let name = match kind {
                         StaticKind::Wall(i) => format!("walls[{i}]"),
                         StaticKind::Pillar(i) => format!("pillars[{i}]"),
+                        StaticKind::Box(i) => format!("boxes[{i}]"),
                         StaticKind::Floor => "the floor".into(),
                         StaticKind::Ceiling => "the ceiling".into(),
                     };
@@ -379,6 +405,7 @@ mod tests {
             (StaticKind::Ceiling, None),
             (StaticKind::Wall(123_456), Some(7)),
             (StaticKind::Pillar(0), Some(0)),
+            (StaticKind::Box(3), Some(1)),
         ] {
             assert_eq!(decode_tag(encode_tag(k, m)), Some((k, m)));
         }

@@ -26,6 +26,13 @@ pub struct SimConfig {
     pub controller: ControllerParams,
     /// Every random stream of the run derives from this.
     pub seed: u64,
+    /// The WiFi scanner (RSSI of the world's access points, see `wifi.rs`); none by default.
+    pub wifi: Option<atrium_robots::WifiSpec>,
+    /// Point-feature (pillar) detectors for EKF-SLAM; none by default.
+    pub landmark_detectors: Vec<atrium_robots::LandmarkDetectorSpec>,
+    /// Depth cameras (opt-in per scenario: each costs one ray per pixel per frame); none by
+    /// default.
+    pub depth_cameras: Vec<atrium_robots::DepthCameraSpec>,
 }
 
 impl Default for SimConfig {
@@ -37,6 +44,9 @@ impl Default for SimConfig {
             lasers: Vec::new(),
             controller: ControllerParams::default(),
             seed: 0,
+            wifi: None,
+            landmark_detectors: Vec::new(),
+            depth_cameras: Vec::new(),
         }
     }
 }
@@ -45,6 +55,10 @@ impl Default for SimConfig {
 /// sensor's noise.
 const STREAM_LASER: u64 = 0x1000;
 const STREAM_LASER_PROBE: u64 = 0x2000;
+const STREAM_WIFI: u64 = 0x6000;
+const STREAM_LANDMARKS: u64 = 0x3000;
+const STREAM_DEPTH: u64 = 0x4000;
+const STREAM_DEPTH_PROBE: u64 = 0x5000;
 
 fn stream(seed: u64, id: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -106,6 +120,20 @@ pub struct Simulation {
     truth: Pose2,
     /// Wheel speeds set directly (rad/s), overriding the follower until the next route.
     manual: Option<(f64, f64)>,
+    /// The WiFi scanner and its schedule (last in each step's output).
+    wifi: Option<(crate::wifi::WifiSensor, Schedule)>,
+    /// The node controller (002 Table I), when the route is a node list; it then drives
+    /// instead of the waypoint follower.
+    node_controller: Option<crate::node_controller::NodeController>,
+    /// The robot's true drive geometry, for the node controller's wheel speeds.
+    drive: atrium_robots::DiffDrive,
+    /// Feed the node controller the true pose instead of odometry (a surveyed teach run).
+    nodes_on_truth: bool,
+    /// Pillar detectors and their schedules (after the lasers in each step's output).
+    landmark_detectors: Vec<(crate::landmarks::LandmarkDetector, Schedule)>,
+    /// Depth cameras, their schedules and probe streams (after the landmark detectors in each
+    /// step's output).
+    depth_cameras: Vec<(crate::depth::DepthCamera, Schedule, ChaCha8Rng)>,
 }
 
 impl Simulation {
@@ -138,6 +166,54 @@ impl Simulation {
             )?);
             probe_rngs.push(stream(config.seed, STREAM_LASER_PROBE + i as u64));
         }
+        let mut landmark_detectors = Vec::with_capacity(config.landmark_detectors.len());
+        for (i, spec) in config.landmark_detectors.iter().enumerate() {
+            let field = format!("landmark_detectors[{i}]");
+            let mount = robot.mount(&spec.mount).ok_or_else(|| {
+                SimError::config(
+                    format!("{field}.mount"),
+                    format!("`{}` is not a link of robot `{}`", spec.mount, robot.name),
+                )
+            })?;
+            let rng = stream(config.seed, STREAM_LANDMARKS + i as u64);
+            let detector = crate::landmarks::LandmarkDetector::new(
+                spec.clone(),
+                &mount.pose,
+                world,
+                rng,
+                &field,
+            )?;
+            let schedule = Schedule::new(hz, spec.rate_hz, &format!("{field}.rate_hz"))?;
+            landmark_detectors.push((detector, schedule));
+        }
+        let mut depth_cameras = Vec::with_capacity(config.depth_cameras.len());
+        for (i, spec) in config.depth_cameras.iter().enumerate() {
+            let field = format!("depth_cameras[{i}]");
+            let mount = robot.mount(&spec.mount).ok_or_else(|| {
+                SimError::config(
+                    format!("{field}.mount"),
+                    format!("`{}` is not a link of robot `{}`", spec.mount, robot.name),
+                )
+            })?;
+            let rng = stream(config.seed, STREAM_DEPTH + i as u64);
+            let camera = crate::depth::DepthCamera::new(spec.clone(), &mount.pose, rng, &field)?;
+            let schedule = Schedule::new(hz, spec.rate_hz, &format!("{field}.rate_hz"))?;
+            let probe = stream(config.seed, STREAM_DEPTH_PROBE + i as u64);
+            depth_cameras.push((camera, schedule, probe));
+        }
+        let wifi = match &config.wifi {
+            Some(spec) => {
+                spec.validate().map_err(|msg| {
+                    let (key, why) = msg.split_once(": ").unwrap_or(("", msg.as_str()));
+                    SimError::config(format!("wifi.{key}"), why)
+                })?;
+                let rng = stream(config.seed, STREAM_WIFI);
+                let sensor = crate::wifi::WifiSensor::new(world, spec.clone(), rng);
+                let schedule = Schedule::new(hz, 1.0 / spec.scan_period_s, "wifi.scan_period_s")?;
+                Some((sensor, schedule))
+            }
+            None => None,
+        };
         let follower = WaypointFollower::new(config.controller, robot.drive())?;
 
         let mut scene = Scene::new(world, hz)?;
@@ -160,12 +236,19 @@ impl Simulation {
             physics_hz: hz,
             steps: 0,
             manual: None,
+            wifi,
+            node_controller: None,
+            drive: robot.drive(),
+            nodes_on_truth: false,
+            landmark_detectors,
+            depth_cameras,
         })
     }
 
     /// Replaces the route (waypoints in the world frame, m); an empty route stops the robot.
     pub fn set_route(&mut self, waypoints: &[[f64; 2]]) {
         self.manual = None;
+        self.node_controller = None;
         self.follower.set_route(waypoints);
     }
 
@@ -189,9 +272,10 @@ impl Simulation {
     /// Returns the ground-truth pose.
     pub fn step(&mut self, out: &mut Vec<Reading>) -> Pose2 {
         let dt = 1.0 / self.physics_hz;
-        let (wl, wr) = match self.manual {
-            Some(w) => w,
-            None => self.follower.update(&self.truth, dt),
+        let (wl, wr) = match (self.manual, &mut self.node_controller) {
+            (Some(w), _) => w,
+            (None, Some(nodes)) => nodes.update(dt),
+            (None, None) => self.follower.update(&self.truth, dt),
         };
         self.robot.set_wheel_speeds(&mut self.scene.physics, wl, wr);
         self.scene.physics.step();
@@ -203,6 +287,15 @@ impl Simulation {
         self.right_encoder.update(r);
         let (lt, rt) = (self.left_encoder.ticks(), self.right_encoder.ticks());
         let odom = self.odometry.update(lt, rt);
+        if let Some(nodes) = &mut self.node_controller {
+            // The node controller drives on odometry, not on the true pose (002 Table I).
+            let pose = if self.nodes_on_truth {
+                self.truth
+            } else {
+                odom
+            };
+            nodes.odometry(pose, self.steps as f64 / self.physics_hz);
+        }
 
         let stamp = self.time();
         if self.odometry_schedule.due(self.steps) {
@@ -219,7 +312,31 @@ impl Simulation {
                 out.push(Reading::Laser(laser.scan(&self.scene, &base, stamp)));
             }
         }
+        for (detector, schedule) in &mut self.landmark_detectors {
+            if schedule.due(self.steps) {
+                out.push(Reading::Landmarks(detector.detect(
+                    &self.scene,
+                    &base,
+                    stamp,
+                )));
+            }
+        }
+        for (camera, schedule, _) in &mut self.depth_cameras {
+            if schedule.due(self.steps) {
+                out.push(Reading::Depth(camera.frame(&self.scene, &base, stamp)));
+            }
+        }
+        if let Some((sensor, schedule)) = &mut self.wifi {
+            if schedule.due(self.steps) {
+                out.push(Reading::Wifi(sensor.scan(&self.truth, stamp)));
+            }
+        }
         self.truth
+    }
+
+    /// The WiFi scanner, when configured (its field gives the noise-free mean RSSI).
+    pub fn wifi(&self) -> Option<&crate::wifi::WifiSensor> {
+        self.wifi.as_ref().map(|(s, _)| s)
     }
 
     /// Sim time, s: steps taken / physics_hz.
@@ -253,7 +370,61 @@ impl Simulation {
 
     /// The follower's current body velocity command (v m/s, ω rad/s).
     pub fn command(&self) -> (f64, f64) {
-        self.follower.command()
+        match &self.node_controller {
+            Some(nodes) => nodes.command(),
+            None => self.follower.command(),
+        }
+    }
+
+    /// Drives a node list with the node controller of 002 Table I (turnTo / moveTo / update,
+    /// thresholds γ_θ and γ_d) on the robot's odometry, from the next step on, with the speed
+    /// and acceleration limits of `SimConfig::controller`. The controller's odometry
+    /// coordinates start at the current true pose. [`Simulation::set_route`] returns to the
+    /// waypoint follower.
+    pub fn set_node_route(
+        &mut self,
+        nodes: &[[f64; 2]],
+        params: crate::node_controller::NodeControllerParams,
+    ) -> Result<(), SimError> {
+        let controller = crate::node_controller::NodeController::new(
+            *self.follower.params(),
+            params,
+            self.drive,
+            nodes,
+            self.truth,
+        )?;
+        self.manual = None;
+        self.node_controller = Some(controller);
+        self.nodes_on_truth = false;
+        Ok(())
+    }
+
+    /// [`Simulation::set_node_route`], but the node controller is fed the true pose instead
+    /// of odometry: a surveyed teach run that stops at the nodes themselves, for training a
+    /// landmark model at them (002 §IV-A: "an ideal node, acquired earlier").
+    pub fn set_node_route_on_ground_truth(
+        &mut self,
+        nodes: &[[f64; 2]],
+        params: crate::node_controller::NodeControllerParams,
+    ) -> Result<(), SimError> {
+        self.set_node_route(nodes, params)?;
+        self.nodes_on_truth = true;
+        Ok(())
+    }
+
+    /// A landmark filter verified node `node` (002 Algorithm 1 lines 12–15): the node
+    /// controller stops, sets its pose to the node and heads for the next. Returns whether it
+    /// applied (false without a node route, or when `node` is not the one being approached).
+    pub fn verify_node(&mut self, node: usize) -> bool {
+        let stamp = self.time();
+        self.node_controller
+            .as_mut()
+            .is_some_and(|c| c.verify(node, stamp))
+    }
+
+    /// The node controller, when the route is a node list.
+    pub fn node_controller(&self) -> Option<&crate::node_controller::NodeController> {
+        self.node_controller.as_ref()
     }
 
     /// Index of the waypoint being approached.
@@ -262,7 +433,10 @@ impl Simulation {
     }
 
     pub fn route_finished(&self) -> bool {
-        self.follower.finished()
+        match &self.node_controller {
+            Some(nodes) => nodes.finished(),
+            None => self.follower.finished(),
+        }
     }
 
     /// Kidnapping: moves every robot body so the base is at `pose`, zeroes all velocities
@@ -311,6 +485,31 @@ impl Simulation {
         let base = pose3(&pose, self.robot.base_z);
         let stamp = self.steps as f64 / self.physics_hz;
         Ok(laser.scan_with(&self.scene, &base, stamp, &mut self.probe_rngs[laser_index]))
+    }
+
+    /// A one-off frame of depth camera `index` with the robot's base (level, on the floor) at
+    /// `pose`, stamped with the current time; noise from a separate stream, so the run's own
+    /// readings are unaffected. The camera's `true_depths` then hold this frame's truth.
+    pub fn depth_at(
+        &mut self,
+        pose: Pose2,
+        index: usize,
+    ) -> Result<atrium_robots::DepthImage, SimError> {
+        let n = self.depth_cameras.len();
+        let (camera, _, rng) = self.depth_cameras.get_mut(index).ok_or_else(|| {
+            SimError::config(
+                "depth_camera_index",
+                format!("{index} is out of range: {n} depth cameras configured"),
+            )
+        })?;
+        let base = pose3(&pose, self.robot.base_z);
+        let stamp = self.steps as f64 / self.physics_hz;
+        Ok(camera.frame_with(&self.scene, &base, stamp, rng))
+    }
+
+    /// Depth camera `index` (its spec and the noiseless depths of its last frame).
+    pub fn depth_camera(&self, index: usize) -> Option<&crate::depth::DepthCamera> {
+        self.depth_cameras.get(index).map(|(c, _, _)| c)
     }
 
     /// The noiseless ranges of laser `laser_index` from its last scan (or `scan_at`).

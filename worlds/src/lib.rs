@@ -3,11 +3,16 @@
 //! grid), exported with or without glass.
 
 pub mod error;
+pub mod furniture;
 pub mod geometry;
+pub mod lighting;
 pub mod loader;
 pub mod map;
+pub mod wifi;
 pub mod world;
 
 pub use error::{MapError, WorldError};
+pub use furniture::FurnitureBox;
 pub use map::{Cell, OccupancyGrid, Segment, VectorMap};
+pub use wifi::{AccessPoint, WifiEnvironment};
 pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World, CAMPUS_TOML};

@@ -21,6 +21,13 @@
 //! polygon = [[30.0, 2.85], [60.0, 2.85], [60.0, 40.0], [30.0, 40.0]]
 //! ```
 //!
+//! WiFi (optional, see [`crate::wifi`]): `wifi_attenuation_db` on a material (default 0),
+//! `[[access_points]]` (name, position, tx_power_dbm, path_loss_exponent, channel) and a
+//! `[wifi]` table for the shadow fading.
+//!
+//! Furniture (optional, see [`crate::furniture`]): `[[boxes]]` with center, size (x, y,
+//! height), yaw (default 0) and material; solid and seen by sensors, left out of the maps.
+//!
 //! Every table denies unknown keys, so a misspelt key is an error naming it. Errors name the
 //! file, the field path (`walls[3].thickness`, indices from 0 in file order) and the line.
 
@@ -32,6 +39,7 @@ use toml::Spanned;
 
 use crate::error::WorldError;
 use crate::geometry::{polygon_area, polygon_self_intersection};
+use crate::wifi::{AccessPoint, WifiEnvironment};
 use crate::world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World};
 
 /// Shorter than this, a wall segment or polygon edge is treated as zero length (metres).
@@ -52,6 +60,16 @@ struct RawWorld {
     pillars: Vec<Spanned<toml::Value>>,
     #[serde(default)]
     regions: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    access_points: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    wifi: Option<Spanned<toml::Value>>,
+    #[serde(default)]
+    boxes: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    lights: Vec<Spanned<toml::Value>>,
+    #[serde(default)]
+    surfaces: BTreeMap<String, Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq)]
@@ -66,6 +84,7 @@ enum LaserKind {
 struct RawMaterial {
     laser: LaserKind,
     reflect_within_deg: Option<f64>,
+    wifi_attenuation_db: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -284,9 +303,15 @@ impl World {
                     }
                 }
             };
+            let wifi_attenuation_db = match m.wifi_attenuation_db {
+                None => 0.0,
+                Some(db) => crate::wifi::check_attenuation(db)
+                    .map_err(|msg| ctx.err(format!("{path}.wifi_attenuation_db"), at, msg))?,
+            };
             materials.push(Material {
                 name: mname.clone(),
                 laser,
+                wifi_attenuation_db,
             });
         }
 
@@ -383,6 +408,69 @@ impl World {
             });
         }
 
+        let mut access_points: Vec<AccessPoint> = Vec::with_capacity(raw.access_points.len());
+        for (i, item) in raw.access_points.iter().enumerate() {
+            let path = format!("access_points[{i}]");
+            let at = Some(item.span().start);
+            let mut ap: AccessPoint = ctx.typed(&path, item)?;
+            ap.name = ap.name.trim().to_string();
+            ap.validate(ceiling_height)
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
+            if let Some(j) = access_points.iter().position(|q| q.name == ap.name) {
+                return Err(ctx.err(
+                    format!("{path}.name"),
+                    at,
+                    format!(
+                        "duplicate access point name \"{}\" (also access_points[{j}])",
+                        ap.name
+                    ),
+                ));
+            }
+            access_points.push(ap);
+        }
+        let wifi = match &raw.wifi {
+            None => WifiEnvironment::default(),
+            Some(item) => {
+                let at = Some(item.span().start);
+                let env: WifiEnvironment = ctx.typed("wifi", item)?;
+                env.validate()
+                    .map_err(|(field, msg)| ctx.err(field, at, msg))?;
+                env
+            }
+        };
+
+        let mut boxes = Vec::with_capacity(raw.boxes.len());
+        for (i, item) in raw.boxes.iter().enumerate() {
+            let path = format!("boxes[{i}]");
+            let at = Some(item.span().start);
+            let b: crate::furniture::FurnitureBox = ctx.typed(&path, item)?;
+            b.validate(ceiling_height)
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
+            ctx.material_ref(&format!("{path}.material"), at, &b.material, &materials)?;
+            boxes.push(b);
+        }
+
+        let mut lighting = crate::lighting::Lighting::default();
+        for (i, item) in raw.lights.iter().enumerate() {
+            let path = format!("lights[{i}]");
+            let at = Some(item.span().start);
+            let l: crate::lighting::Light = ctx.typed(&path, item)?;
+            l.validate(ceiling_height)
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
+            lighting.lights.push(l);
+        }
+        for (sname, item) in &raw.surfaces {
+            let path = format!("surfaces.{sname}");
+            let at = Some(item.span().start);
+            if sname != "floor" && sname != "ceiling" {
+                ctx.material_ref(&path, at, sname, &materials)?;
+            }
+            let s: crate::lighting::Surface = ctx.typed(&path, item)?;
+            s.validate()
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
+            lighting.surfaces.insert(sname.clone(), s);
+        }
+
         Ok(World {
             name,
             ceiling_height,
@@ -390,6 +478,10 @@ impl World {
             walls,
             pillars,
             regions,
+            access_points,
+            wifi,
+            boxes,
+            lighting,
         })
     }
 
@@ -413,6 +505,13 @@ impl World {
                     format!("duplicate material name \"{}\"", m.name),
                 ));
             }
+            crate::wifi::check_attenuation(m.wifi_attenuation_db).map_err(|msg| {
+                ctx.err(
+                    format!("materials.{}.wifi_attenuation_db", m.name),
+                    None,
+                    msg,
+                )
+            })?;
             if let LaserBehaviour::Glass { reflect_within_deg } = m.laser {
                 let field = format!("materials.{}.reflect_within_deg", m.name);
                 let deg = ctx.finite(&field, None, reflect_within_deg)?;
@@ -453,6 +552,38 @@ impl World {
                 &format!("{path}.material"),
                 None,
                 &p.material,
+                &self.materials,
+            )?;
+        }
+        for (i, ap) in self.access_points.iter().enumerate() {
+            let path = format!("access_points[{i}]");
+            ap.validate(self.ceiling_height)
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), None, msg))?;
+            if let Some(j) = self.access_points[..i]
+                .iter()
+                .position(|q| q.name == ap.name)
+            {
+                return Err(ctx.err(
+                    format!("{path}.name"),
+                    None,
+                    format!(
+                        "duplicate access point name \"{}\" (also access_points[{j}])",
+                        ap.name
+                    ),
+                ));
+            }
+        }
+        self.wifi
+            .validate()
+            .map_err(|(field, msg)| ctx.err(field, None, msg))?;
+        for (i, b) in self.boxes.iter().enumerate() {
+            let path = format!("boxes[{i}]");
+            b.validate(self.ceiling_height)
+                .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), None, msg))?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                None,
+                &b.material,
                 &self.materials,
             )?;
         }

@@ -344,17 +344,23 @@ mod tests {
                 Material {
                     name: "concrete".into(),
                     laser: LaserBehaviour::Opaque,
+                    wifi_attenuation_db: 0.0,
                 },
                 Material {
                     name: "glass".into(),
                     laser: LaserBehaviour::Glass {
                         reflect_within_deg: 5.0,
                     },
+                    wifi_attenuation_db: 0.0,
                 },
             ],
             walls: vec![wall(0.0, 0.2, "concrete"), wall(2.0, 0.04, "glass")],
             pillars: vec![],
             regions: vec![],
+            access_points: vec![],
+            wifi: Default::default(),
+            boxes: Vec::new(),
+            lighting: Default::default(),
         }
     }
 

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{distance, point_in_polygon, wall_corners, wall_signed_distance};
+use crate::wifi::{AccessPoint, WifiEnvironment};
 
 /// What a laser beam does at a surface of this material.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -18,6 +19,9 @@ pub enum LaserBehaviour {
 pub struct Material {
     pub name: String,
     pub laser: LaserBehaviour,
+    /// What one crossing of a wall of this material costs a WiFi signal's direct path, dB.
+    #[serde(default)]
+    pub wifi_attenuation_db: f64,
 }
 
 /// A straight wall: the centre line from `a` to `b`, a thickness and a height.
@@ -69,6 +73,20 @@ pub struct World {
     pub walls: Vec<Wall>,
     pub pillars: Vec<Pillar>,
     pub regions: Vec<Region>,
+    /// WiFi access points (`[[access_points]]`, see [`crate::wifi`]).
+    #[serde(default)]
+    pub access_points: Vec<AccessPoint>,
+    /// Shadow fading of the WiFi signals (`[wifi]`).
+    #[serde(default)]
+    pub wifi: WifiEnvironment,
+    /// Furniture (`[[boxes]]`, see [`crate::furniture`]): solid and seen by sensors, but not
+    /// part of the maps a localizer is given.
+    #[serde(default)]
+    pub boxes: Vec<crate::furniture::FurnitureBox>,
+    /// Lights and surface looks for cameras (`[[lights]]`, `[surfaces.*]`, see
+    /// [`crate::lighting`]).
+    #[serde(default)]
+    pub lighting: crate::lighting::Lighting,
 }
 
 /// The bundled campus world's TOML text (`worlds/campus.toml`).
@@ -162,12 +180,14 @@ mod tests {
                 Material {
                     name: "concrete".into(),
                     laser: LaserBehaviour::Opaque,
+                    wifi_attenuation_db: 0.0,
                 },
                 Material {
                     name: "glass".into(),
                     laser: LaserBehaviour::Glass {
                         reflect_within_deg: 5.0,
                     },
+                    wifi_attenuation_db: 0.0,
                 },
             ],
             // A 0.2 m wall x ∈ [0, 10] on y = 0 and a glass wall x = 10, y ∈ [0, 5].
@@ -205,6 +225,10 @@ mod tests {
                     polygon: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 5.0], [0.0, 5.0]],
                 },
             ],
+            access_points: vec![],
+            wifi: Default::default(),
+            boxes: Vec::new(),
+            lighting: Default::default(),
         }
     }
 
