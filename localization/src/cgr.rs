@@ -32,6 +32,7 @@ use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::particles::{carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
@@ -589,27 +590,10 @@ impl Cgr {
     /// Weighted mean (circular for θ) and covariance of the current set.
     fn compute_estimate(&mut self) {
         let n = self.n;
-        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..n {
-            let w = self.w[i];
-            mx += w * self.x[i];
-            my += w * self.y[i];
-            let (s, c) = self.th[i].sin_cos();
-            ms += w * s;
-            mc += w * c;
-        }
-        let mt = ms.atan2(mc);
-        let mut cov = Matrix3::zeros();
-        for i in 0..n {
-            let d = nalgebra::Vector3::new(
-                self.x[i] - mx,
-                self.y[i] - my,
-                normalize_angle(self.th[i] - mt),
-            );
-            cov += self.w[i] * d * d.transpose();
-        }
-        self.mean = Pose2::new(mx, my, mt);
-        self.covariance = cov;
+        let (mean, covariance) =
+            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
+        self.mean = mean;
+        self.covariance = covariance;
     }
 }
 
@@ -649,25 +633,7 @@ impl Localizer for Cgr {
     }
 
     fn estimate(&self) -> Estimate {
-        let p = self.pending;
-        let pose = self.mean.compose(&p);
-        let (s, c) = self.mean.theta.sin_cos();
-        let j = Matrix3::new(
-            1.0,
-            0.0,
-            -s * p.x - c * p.y,
-            0.0,
-            1.0,
-            c * p.x - s * p.y,
-            0.0,
-            0.0,
-            1.0,
-        );
-        Estimate {
-            stamp: self.stamp,
-            pose,
-            covariance: j * self.covariance * j.transpose(),
-        }
+        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 }
 

@@ -16,6 +16,7 @@ pub mod line_map;
 pub mod localizer;
 pub mod mcl;
 pub mod motion;
+pub mod particles;
 pub mod pca;
 pub mod resampling;
 pub mod wifi_graph;

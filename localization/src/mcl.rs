@@ -7,8 +7,10 @@ use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::particles::{carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
+use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
 use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
@@ -612,28 +614,10 @@ impl Mcl {
     /// Weighted mean (circular for θ) and weighted covariance of the current set.
     fn compute_estimate(&mut self) {
         let n = self.n;
-        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..n {
-            let w = self.w[i];
-            mx += w * self.x[i];
-            my += w * self.y[i];
-            let (s, c) = self.th[i].sin_cos();
-            ms += w * s;
-            mc += w * c;
-        }
-        let mt = ms.atan2(mc);
-        let mut cov = Matrix3::zeros();
-        for i in 0..n {
-            let w = self.w[i];
-            let d = nalgebra::Vector3::new(
-                self.x[i] - mx,
-                self.y[i] - my,
-                normalize_angle(self.th[i] - mt),
-            );
-            cov += w * d * d.transpose();
-        }
-        self.mean = Pose2::new(mx, my, mt);
-        self.covariance = cov;
+        let (mean, covariance) =
+            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
+        self.mean = mean;
+        self.covariance = covariance;
     }
 }
 
@@ -671,42 +655,8 @@ impl Localizer for Mcl {
     /// The weighted mean at the last sensor update, moved by the odometry received since,
     /// with its covariance carried through the same composition (first order).
     fn estimate(&self) -> Estimate {
-        let p = self.pending;
-        let pose = self.mean.compose(&p);
-        let (s, c) = self.mean.theta.sin_cos();
-        let j = Matrix3::new(
-            1.0,
-            0.0,
-            -s * p.x - c * p.y,
-            0.0,
-            1.0,
-            c * p.x - s * p.y,
-            0.0,
-            0.0,
-            1.0,
-        );
-        Estimate {
-            stamp: self.stamp,
-            pose,
-            covariance: j * self.covariance * j.transpose(),
-        }
+        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
-}
-
-/// Even-odd rule; points on an edge may fall either way.
-fn point_in_polygon(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
-    let mut inside = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-        {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
 }
 
 /// The grid at another resolution over the same origin. A target cell is Occupied if it

@@ -24,9 +24,11 @@ use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::particles::{carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use crate::wifi_graph::WifiGraph;
 use atrium_robots::{normalize_angle, Pose2, Reading, WifiScan};
+use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
 use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
@@ -406,27 +408,10 @@ impl WifiMcl {
 
     fn compute_estimate(&mut self) {
         let n = self.n;
-        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..n {
-            let w = self.w[i];
-            mx += w * self.x[i];
-            my += w * self.y[i];
-            let (s, c) = self.th[i].sin_cos();
-            ms += w * s;
-            mc += w * c;
-        }
-        let mt = ms.atan2(mc);
-        let mut cov = Matrix3::zeros();
-        for i in 0..n {
-            let d = nalgebra::Vector3::new(
-                self.x[i] - mx,
-                self.y[i] - my,
-                normalize_angle(self.th[i] - mt),
-            );
-            cov += self.w[i] * d * d.transpose();
-        }
-        self.mean = Pose2::new(mx, my, mt);
-        self.covariance = cov;
+        let (mean, covariance) =
+            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
+        self.mean = mean;
+        self.covariance = covariance;
     }
 }
 
@@ -454,42 +439,8 @@ impl Localizer for WifiMcl {
     }
 
     fn estimate(&self) -> Estimate {
-        let p = self.pending;
-        let pose = self.mean.compose(&p);
-        let (s, c) = self.mean.theta.sin_cos();
-        let j = Matrix3::new(
-            1.0,
-            0.0,
-            -s * p.x - c * p.y,
-            0.0,
-            1.0,
-            c * p.x - s * p.y,
-            0.0,
-            0.0,
-            1.0,
-        );
-        Estimate {
-            stamp: self.stamp,
-            pose,
-            covariance: j * self.covariance * j.transpose(),
-        }
+        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
-}
-
-/// Even-odd rule.
-fn point_in_polygon(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
-    let mut inside = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-        {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
 }
 
 #[cfg(test)]
