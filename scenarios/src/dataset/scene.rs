@@ -1,6 +1,6 @@
 //! The static parts of a recording: the world as a `foxglove.SceneUpdate` (walls as boxes,
-//! glass drawn translucent, pillars as cylinders, access points as spheres with their names)
-//! and the robot's frame tree from its URDF as a `foxglove.FrameTransforms`.
+//! glass drawn translucent, pillars as cylinders, furniture as boxes, access points as spheres
+//! with their names) and the robot's frame tree from its URDF as a `foxglove.FrameTransforms`.
 
 use super::codec::{frame_transform, timestamp, yaw_quaternion};
 use atrium_robots::{Mount3, RobotModel};
@@ -24,6 +24,12 @@ const PILLAR: fg::Color = fg::Color {
     r: 0.55,
     g: 0.55,
     b: 0.55,
+    a: 1.0,
+};
+const FURNITURE: fg::Color = fg::Color {
+    r: 0.62,
+    g: 0.45,
+    b: 0.28,
     a: 1.0,
 };
 const ACCESS_POINT: fg::Color = fg::Color {
@@ -103,6 +109,20 @@ pub fn scene_update(world: &World, frame: &str, ns: u64) -> fg::SceneUpdate {
             }),
         });
     }
+    // Furniture is in the scene the sensors see (not in the localizers' maps): draw it so a
+    // viewer shows what the depth camera and laser hit.
+    let mut furniture = entity(ns, frame, "furniture");
+    for b in &world.boxes {
+        furniture.cubes.push(fg::CubePrimitive {
+            pose: Some(pose(b.center[0], b.center[1], 0.5 * b.size[2], b.yaw)),
+            size: Some(fg::Vector3 {
+                x: b.size[0],
+                y: b.size[1],
+                z: b.size[2],
+            }),
+            color: Some(FURNITURE),
+        });
+    }
     let mut aps = entity(ns, frame, "access_points");
     for ap in &world.access_points {
         let [x, y, z] = ap.position;
@@ -124,7 +144,7 @@ pub fn scene_update(world: &World, frame: &str, ns: u64) -> fg::SceneUpdate {
             text: format!("{} (ch {})", ap.name, ap.channel),
         });
     }
-    let entities = [walls, glass, pillars, aps]
+    let entities = [walls, glass, pillars, furniture, aps]
         .into_iter()
         .filter(|e| !(e.cubes.is_empty() && e.cylinders.is_empty() && e.spheres.is_empty()))
         .collect();
@@ -191,5 +211,11 @@ mod tests {
             by_id("access_points").map_or(0, |e| e.spheres.len()),
             world.access_points.len()
         );
+        assert!(!world.boxes.is_empty());
+        let furniture = by_id("furniture").unwrap();
+        assert_eq!(furniture.cubes.len(), world.boxes.len());
+        let (b, c) = (&world.boxes[0], &furniture.cubes[0]);
+        let p = c.pose.unwrap().position.unwrap();
+        assert!((p.x - b.center[0]).abs() < 1e-12 && (p.z - 0.5 * b.size[2]).abs() < 1e-12);
     }
 }
