@@ -21,6 +21,7 @@ pub mod scenario;
 pub mod seeds;
 pub mod slam;
 pub mod slam_plot;
+pub mod sweep;
 pub mod tum;
 pub mod wifi_training;
 

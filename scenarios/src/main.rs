@@ -82,6 +82,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Run a parameter sweep (`atrium sweep SWEEP`) or join shard outputs
+    /// (`atrium sweep merge OUT_DIR SHARD_DIR...`).
+    Sweep(SweepArgs),
     /// Measure whole-run throughput on this machine.
     Bench {
         /// all, corridor_tracking, laser or empca.
@@ -102,6 +105,86 @@ enum Command {
         #[arg(long = "missing")]
         empca_missing: Option<f64>,
     },
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+struct SweepArgs {
+    #[command(subcommand)]
+    action: Option<SweepAction>,
+    /// The sweep file.
+    sweep: Option<PathBuf>,
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Run only the trials whose global index % N == I (a Slurm array or Kubernetes
+    /// indexed job runs one shard per task).
+    #[arg(long)]
+    shard: Option<String>,
+    /// Continue an interrupted sweep: skip trials already in DIR/results.csv.
+    #[arg(long)]
+    resume: bool,
+    /// Output folder (default: sweep-<sweep file stem>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum SweepAction {
+    /// Join the results of shards of one sweep into OUT_DIR.
+    Merge {
+        out_dir: PathBuf,
+        #[arg(required = true)]
+        shard_dirs: Vec<PathBuf>,
+    },
+}
+
+fn sweep_command(args: SweepArgs) -> Result<bool, BadInput> {
+    use atrium_scenarios::sweep;
+    if let Some(SweepAction::Merge {
+        out_dir,
+        shard_dirs,
+    }) = args.action
+    {
+        let merged = sweep::merge(&out_dir, &shard_dirs)?;
+        eprintln!(
+            "merged {} rows from {} shards into {}",
+            merged.rows.len(),
+            shard_dirs.len(),
+            out_dir.display()
+        );
+        return Ok(true);
+    }
+    let file = args
+        .sweep
+        .ok_or_else(|| anyhow::anyhow!("atrium sweep: give a sweep file (or `merge`)"))?;
+    let shard = args
+        .shard
+        .as_deref()
+        .map(sweep::parse_shard)
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    let s = sweep::Sweep::load(&file)?;
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from(format!("sweep-{}", s.name)));
+    let settings = sweep::SweepSettings {
+        out,
+        jobs: args.jobs,
+        shard,
+        resume: args.resume,
+        progress: std::io::stderr().is_terminal(),
+    };
+    let o = sweep::run_sweep(&s, &settings)?;
+    eprintln!(
+        "ran {} trials ({} already recorded) in {:.1} s: {} and {}",
+        o.ran,
+        o.skipped,
+        o.wall_s,
+        o.results_csv.display(),
+        o.summary_md.display()
+    );
+    Ok(true)
 }
 
 #[derive(Subcommand)]
@@ -279,6 +362,7 @@ fn main_inner(cli: Cli) -> Result<bool, BadInput> {
         }) => Ok(atrium_scenarios::dataset::cli::replay_command(
             &file, scenario, localizers, json, out,
         )?),
+        Some(Command::Sweep(args)) => sweep_command(args),
         Some(Command::Bench {
             what,
             json,
