@@ -1,15 +1,11 @@
 //! The `atrium` binary as users' scripts see it: exit codes, messages naming file and field,
 //! stable JSON, output files.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn atrium(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_atrium"))
-        .args(args)
-        .output()
-        .expect("run atrium")
-}
+use common::{atrium, tmpdir};
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -19,13 +15,6 @@ fn data(name: &str) -> PathBuf {
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("atrium-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn stderr(o: &Output) -> String {

@@ -2,25 +2,13 @@
 //! replay equals live, bad files refused cleanly by the CLI (exit 2), `replay --out` TUM
 //! files, and the exported occupancy map against the world's free space.
 
+mod common;
+
 use atrium_scenarios::dataset::{self, replay::Recording, ReplayOptions};
 use atrium_scenarios::{output, report, run_scenario, RunOptions, Scenario};
+use common::{atrium, tmpdir};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn atrium(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_atrium"))
-        .args(args)
-        .output()
-        .expect("run atrium")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("atrium-dataset-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use std::path::Path;
 
 /// A bundled scenario with its duration cut to `duration_s` (kept beside the bundled file so
 /// its relative paths resolve).

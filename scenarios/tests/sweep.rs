@@ -1,22 +1,11 @@
 //! `atrium sweep`: results independent of threads and shards, resume redoes only missing
 //! trials, bad input exits 2 naming the axis or file.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn atrium(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_atrium"))
-        .args(args)
-        .output()
-        .expect("run atrium")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("atrium-sweep-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::{atrium, tmpdir};
+use std::path::Path;
+use std::process::Output;
 
 /// A 2-cell × 2-trial sweep over a 2-second corridor scenario, written into `dir`.
 fn tiny_sweep(dir: &Path, axes: &str) -> String {
