@@ -7,6 +7,7 @@
 //! f_h, f_v); the noise model σ(z) = 0.0012 + 0.0019 (z − 0.4)² m is the Kinect's measured
 //! axial noise (Nguyen, Izadi & Lovell, 3DIMPVT 2012), as the project's ARCHITECTURE.md asks.
 
+use crate::sensors::{check_mounted_sensor, require_all_fields};
 use serde::{Deserialize, Serialize};
 
 /// Every field of [`DepthCameraSpec`], as named in TOML.
@@ -142,19 +143,7 @@ impl DepthCameraSpec {
                 )
             })?,
             None => {
-                let missing: Vec<&str> = FIELDS
-                    .iter()
-                    .copied()
-                    .filter(|k| !table.contains_key(*k))
-                    .collect();
-                if !missing.is_empty() {
-                    return Err(format!(
-                        "{field}: no preset given, so every field is needed; missing: {} \
-                         (or set preset = one of {})",
-                        missing.join(", "),
-                        PRESETS.join(", ")
-                    ));
-                }
+                require_all_fields(table, &FIELDS, field, &PRESETS)?;
                 Self::kinect(&name, &mount)
             }
         };
@@ -208,31 +197,23 @@ impl DepthCameraSpec {
     /// Checks every field; the error starts with the field's name, e.g.
     /// `"fov_h: must be in (0°, 180°) (got 180°)"`.
     pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [
-            ("rate_hz", self.rate_hz),
-            ("fov_h", self.fov_h),
-            ("fov_v", self.fov_v),
-            ("range_min", self.range_min),
-            ("range_max", self.range_max),
-            ("noise_base", self.noise_base),
-            ("noise_quadratic", self.noise_quadratic),
-            ("noise_offset", self.noise_offset),
-            ("quantization", self.quantization),
-            ("max_incidence_deg", self.max_incidence_deg),
-        ] {
-            if !v.is_finite() {
-                return Err(format!("{name}: must be finite (got {v})"));
-            }
-        }
-        if self.name.trim().is_empty() {
-            return Err("name: must not be empty".into());
-        }
-        if self.mount.trim().is_empty() {
-            return Err("mount: must not be empty".into());
-        }
-        if self.rate_hz <= 0.0 {
-            return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
-        }
+        check_mounted_sensor(
+            &self.name,
+            &self.mount,
+            self.rate_hz,
+            &[
+                ("rate_hz", self.rate_hz),
+                ("fov_h", self.fov_h),
+                ("fov_v", self.fov_v),
+                ("range_min", self.range_min),
+                ("range_max", self.range_max),
+                ("noise_base", self.noise_base),
+                ("noise_quadratic", self.noise_quadratic),
+                ("noise_offset", self.noise_offset),
+                ("quantization", self.quantization),
+                ("max_incidence_deg", self.max_incidence_deg),
+            ],
+        )?;
         if self.width == 0 {
             return Err("width: must be at least 1 pixel (got 0)".into());
         }

@@ -3,6 +3,7 @@
 //! model eq. 5: z = h(x) + w with w Gaussian). What it detects (pillar centres) is decided by
 //! the simulator; this is only the sensor's description.
 
+use crate::sensors::check_mounted_sensor;
 use serde::{Deserialize, Serialize};
 
 /// Whether detections carry the feature's identity.
@@ -57,27 +58,19 @@ impl Default for LandmarkDetectorSpec {
 impl LandmarkDetectorSpec {
     /// Checks every field; the error names it, e.g. `"range_min: must be > 0 (got 0)"`.
     pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [
-            ("rate_hz", self.rate_hz),
-            ("range_min", self.range_min),
-            ("range_max", self.range_max),
-            ("fov", self.fov),
-            ("sigma_range", self.sigma_range),
-            ("sigma_bearing", self.sigma_bearing),
-        ] {
-            if !v.is_finite() {
-                return Err(format!("{name}: must be finite (got {v})"));
-            }
-        }
-        if self.name.trim().is_empty() {
-            return Err("name: must not be empty".into());
-        }
-        if self.mount.trim().is_empty() {
-            return Err("mount: must not be empty".into());
-        }
-        if self.rate_hz <= 0.0 {
-            return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
-        }
+        check_mounted_sensor(
+            &self.name,
+            &self.mount,
+            self.rate_hz,
+            &[
+                ("rate_hz", self.rate_hz),
+                ("range_min", self.range_min),
+                ("range_max", self.range_max),
+                ("fov", self.fov),
+                ("sigma_range", self.sigma_range),
+                ("sigma_bearing", self.sigma_bearing),
+            ],
+        )?;
         if self.range_min <= 0.0 {
             return Err(format!(
                 "range_min: must be > 0 (got {}): a feature at zero range has no bearing",

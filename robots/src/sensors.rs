@@ -110,6 +110,52 @@ fn finite(value: f64, name: &str) -> Result<(), String> {
     }
 }
 
+/// Checks every mounted sensor spec shares, in this order: the listed numbers are finite, the
+/// name and mount link are not empty, the rate is positive. Errors start with the field name.
+pub(crate) fn check_mounted_sensor(
+    name: &str,
+    mount: &str,
+    rate_hz: f64,
+    numbers: &[(&str, f64)],
+) -> Result<(), String> {
+    for (field, v) in numbers {
+        finite(*v, field)?;
+    }
+    if name.trim().is_empty() {
+        return Err("name: must not be empty".into());
+    }
+    if mount.trim().is_empty() {
+        return Err("mount: must not be empty".into());
+    }
+    if rate_hz <= 0.0 {
+        return Err(format!("rate_hz: must be > 0 (got {rate_hz})"));
+    }
+    Ok(())
+}
+
+/// A spec table without a `preset` must give every field; the error lists the missing ones.
+pub(crate) fn require_all_fields(
+    table: &toml::Table,
+    fields: &[&str],
+    field: &str,
+    presets: &[&str],
+) -> Result<(), String> {
+    let missing: Vec<&str> = fields
+        .iter()
+        .copied()
+        .filter(|k| !table.contains_key(*k))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "{field}: no preset given, so every field is needed; missing: {} \
+         (or set preset = one of {})",
+        missing.join(", "),
+        presets.join(", ")
+    ))
+}
+
 fn probability(value: f64, name: &str) -> Result<(), String> {
     if (0.0..=1.0).contains(&value) {
         Ok(())
@@ -209,19 +255,7 @@ impl LaserSpec {
                 )
             })?,
             None => {
-                let missing: Vec<&str> = LASER_FIELDS
-                    .iter()
-                    .copied()
-                    .filter(|k| !table.contains_key(*k))
-                    .collect();
-                if !missing.is_empty() {
-                    return Err(format!(
-                        "{field}: no preset given, so every field is needed; missing: {} \
-                         (or set preset = one of {})",
-                        missing.join(", "),
-                        PRESETS.join(", ")
-                    ));
-                }
+                require_all_fields(table, &LASER_FIELDS, field, &PRESETS)?;
                 // Every field is overwritten below.
                 Self::sick_lms200(&name, &mount)
             }
@@ -251,28 +285,22 @@ impl LaserSpec {
 
     /// Checks every number; the error names the field, e.g. `"beams: must be at least 1 (got 0)"`.
     pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [
-            ("rate_hz", self.rate_hz),
-            ("fov", self.fov),
-            ("range_min", self.range_min),
-            ("range_max", self.range_max),
-            ("sigma_hit", self.sigma_hit),
-            ("p_short", self.p_short),
-            ("lambda_short", self.lambda_short),
-            ("p_max", self.p_max),
-            ("p_rand", self.p_rand),
-        ] {
-            finite(v, name)?;
-        }
-        if self.name.trim().is_empty() {
-            return Err("name: must not be empty".into());
-        }
-        if self.mount.trim().is_empty() {
-            return Err("mount: must not be empty".into());
-        }
-        if self.rate_hz <= 0.0 {
-            return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
-        }
+        check_mounted_sensor(
+            &self.name,
+            &self.mount,
+            self.rate_hz,
+            &[
+                ("rate_hz", self.rate_hz),
+                ("fov", self.fov),
+                ("range_min", self.range_min),
+                ("range_max", self.range_max),
+                ("sigma_hit", self.sigma_hit),
+                ("p_short", self.p_short),
+                ("lambda_short", self.lambda_short),
+                ("p_max", self.p_max),
+                ("p_rand", self.p_rand),
+            ],
+        )?;
         if self.beams < 1 {
             return Err(format!("beams: must be at least 1 (got {})", self.beams));
         }
