@@ -32,7 +32,7 @@ use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{carried_by_odometry, weighted_mean_covariance};
+use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
@@ -604,11 +604,7 @@ impl Localizer for Cgr {
 
     /// Accumulates odometry; the motion model runs at the next observation (step 1).
     fn predict(&mut self, delta: &OdometryDelta) {
-        if !delta.from.is_finite() || !delta.to.is_finite() {
-            return;
-        }
-        self.pending = self.pending.compose(&delta.from.between(&delta.to));
-        self.stamp = self.stamp.max(delta.stamp);
+        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
     }
 
     /// Laser scans for a laser CGR, depth images for a depth CGR; everything else is

@@ -7,7 +7,7 @@ use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{carried_by_odometry, weighted_mean_covariance};
+use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
@@ -628,11 +628,7 @@ impl Localizer for Mcl {
 
     /// Accumulates odometry; the motion model runs just before the next sensor update.
     fn predict(&mut self, delta: &OdometryDelta) {
-        if !delta.from.is_finite() || !delta.to.is_finite() {
-            return;
-        }
-        self.pending = self.pending.compose(&delta.from.between(&delta.to));
-        self.stamp = self.stamp.max(delta.stamp);
+        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
     }
 
     /// Laser scans only; odometry readings are ignored because odometry arrives through

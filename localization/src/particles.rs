@@ -2,7 +2,7 @@
 //! estimate of a struct-of-arrays particle set, and that estimate carried forward by the
 //! odometry received since the last sensor update.
 
-use crate::localizer::Estimate;
+use crate::localizer::{Estimate, OdometryDelta};
 use atrium_robots::{normalize_angle, Pose2};
 use nalgebra::{Matrix3, Vector3};
 
@@ -29,6 +29,17 @@ pub fn weighted_mean_covariance(
         cov += wi * d * d.transpose();
     }
     (Pose2::new(mx, my, mt), cov)
+}
+
+/// Adds one odometry step to the motion not yet applied to the particles, and advances the
+/// filter's clock. Non-finite odometry is ignored (a broken encoder reading must not poison
+/// the particle set).
+pub fn accumulate_odometry(pending: &mut Pose2, stamp: &mut f64, delta: &OdometryDelta) {
+    if !delta.from.is_finite() || !delta.to.is_finite() {
+        return;
+    }
+    *pending = pending.compose(&delta.from.between(&delta.to));
+    *stamp = stamp.max(delta.stamp);
 }
 
 /// The estimate `mean` (with `covariance`) of the last sensor update, moved by the odometry
@@ -79,6 +90,30 @@ mod tests {
         assert!((m.theta.abs() - pi).abs() < 1e-12);
         assert!((cov[(0, 0)] - 1.0).abs() < 1e-12);
         assert!((cov[(2, 2)] - 0.01).abs() < 1e-12);
+    }
+
+    #[test]
+    fn odometry_accumulates_and_nan_is_ignored() {
+        let (mut pending, mut stamp) = (Pose2::default(), 0.0);
+        let step = |t: f64, from: Pose2, to: Pose2| OdometryDelta { stamp: t, from, to };
+        let a = Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2);
+        accumulate_odometry(&mut pending, &mut stamp, &step(0.1, Pose2::default(), a));
+        accumulate_odometry(
+            &mut pending,
+            &mut stamp,
+            &step(0.2, a, Pose2::new(1.0, 1.0, a.theta)),
+        );
+        accumulate_odometry(
+            &mut pending,
+            &mut stamp,
+            &step(0.3, a, Pose2::new(f64::NAN, 0.0, 0.0)),
+        );
+        // Forward 1 m, turn left, forward 1 m: (1, 1) facing +y; the NaN step changed nothing.
+        assert!(
+            (pending.x - 1.0).abs() < 1e-12 && (pending.y - 1.0).abs() < 1e-12,
+            "{pending:?}"
+        );
+        assert_eq!(stamp, 0.2);
     }
 
     #[test]

@@ -24,7 +24,7 @@ use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{carried_by_odometry, weighted_mean_covariance};
+use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
 use crate::wifi_graph::WifiGraph;
 use atrium_robots::{normalize_angle, Pose2, Reading, WifiScan};
@@ -421,11 +421,7 @@ impl Localizer for WifiMcl {
     }
 
     fn predict(&mut self, delta: &OdometryDelta) {
-        if !delta.from.is_finite() || !delta.to.is_finite() {
-            return;
-        }
-        self.pending = self.pending.compose(&delta.from.between(&delta.to));
-        self.stamp = self.stamp.max(delta.stamp);
+        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
     }
 
     /// WiFi scans only (odometry arrives through `predict`).
