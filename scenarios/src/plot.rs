@@ -2,6 +2,7 @@
 //! coloured by its position error. Written as SVG (with legend) and PNG.
 
 use crate::runner::{LocalizerRun, RunResult};
+use atrium_worlds::geometry::wall_corners;
 use atrium_worlds::{LaserBehaviour, World};
 use std::fmt::Write;
 
@@ -20,19 +21,6 @@ pub fn error_colour(e: f64) -> [u8; 3] {
         let u = (t - 0.5) / 0.5;
         [255, (220.0 * (1.0 - u)) as u8, 40]
     }
-}
-
-/// Corners of a wall's rectangle, counter-clockwise.
-fn wall_corners(a: [f64; 2], b: [f64; 2], thickness: f64) -> [[f64; 2]; 4] {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let len = dx.hypot(dy).max(1e-12);
-    let (nx, ny) = (-dy / len * 0.5 * thickness, dx / len * 0.5 * thickness);
-    [
-        [a[0] - nx, a[1] - ny],
-        [b[0] - nx, b[1] - ny],
-        [b[0] + nx, b[1] + ny],
-        [a[0] + nx, a[1] + ny],
-    ]
 }
 
 struct Frame {
@@ -250,12 +238,5 @@ mod tests {
         assert_eq!(error_colour(0.001), [40, 170, 40]);
         assert_eq!(error_colour(0.1), [255, 220, 40]);
         assert_eq!(error_colour(5.0), [255, 0, 40]);
-    }
-
-    #[test]
-    fn wall_corners_are_offset_by_half_thickness() {
-        let c = wall_corners([0.0, 0.0], [2.0, 0.0], 0.2);
-        assert_eq!(c[0], [0.0, -0.1]);
-        assert_eq!(c[2], [2.0, 0.1]);
     }
 }

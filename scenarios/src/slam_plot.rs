@@ -20,6 +20,7 @@ use atrium_localization::covariance_monitor::{
     largest_eigenvalue, relative_covariance, single_linkage,
 };
 use atrium_localization::ekf_slam::SlamSnapshot;
+use atrium_worlds::geometry::wall_corners;
 use atrium_worlds::{LaserBehaviour, World};
 use std::fmt::Write;
 
@@ -86,18 +87,6 @@ fn ellipse_of(xx: f64, xy: f64, yy: f64) -> (f64, f64, f64) {
 
 fn mid(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-}
-
-fn wall_corners(a: [f64; 2], b: [f64; 2], t: f64) -> Vec<[f64; 2]> {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let len = dx.hypot(dy).max(1e-12);
-    let (nx, ny) = (-dy / len * 0.5 * t, dx / len * 0.5 * t);
-    vec![
-        [a[0] - nx, a[1] - ny],
-        [b[0] - nx, b[1] - ny],
-        [b[0] + nx, b[1] + ny],
-        [a[0] + nx, a[1] + ny],
-    ]
 }
 
 /// A "nice" magnification (1, 2 or 5 × 10ⁿ) that draws an ellipse of semi-axis `a` m at
@@ -319,7 +308,7 @@ fn frame_items(
             .iter()
             .any(|m| m.name == wall.material && matches!(m.laser, LaserBehaviour::Glass { .. }));
         items.push(Item::Poly {
-            pts: wall_corners(wall.a, wall.b, wall.thickness),
+            pts: wall_corners(wall.a, wall.b, wall.thickness).to_vec(),
             rgba: if glass {
                 [126, 200, 227, 160]
             } else {
