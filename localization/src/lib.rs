@@ -7,6 +7,7 @@ pub mod dead_reckoning;
 pub mod ekf_slam;
 pub mod em_pca;
 pub mod error;
+pub mod error_map;
 pub mod fspf;
 pub mod gp;
 pub mod kld;

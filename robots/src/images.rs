@@ -1,6 +1,6 @@
 //! Camera images: grey intensity images and disparity maps with missing values
-//! (seeds/000 §III). Not yet variants of [`crate::Reading`]; the simulator renders them on
-//! request (`atrium_sim::camera`, `atrium_sim::stereo`).
+//! (seeds/000 §III), carried in the reading stream as [`crate::Reading::Intensity`] and
+//! [`crate::Reading::Disparity`] (rendered by `atrium_sim::camera` and `atrium_sim::stereo`).
 
 use crate::readings::Mount3;
 use serde::{Deserialize, Serialize};

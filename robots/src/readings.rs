@@ -121,6 +121,11 @@ pub enum Reading {
     Depth(DepthImage),
     Wifi(WifiScan),
     Landmarks(LandmarkDetections),
+    /// A grey image from a camera (seeds/000 §III; also the omnidirectional and ceiling
+    /// cameras of seeds/001).
+    Intensity(crate::images::IntensityImage),
+    /// A stereo disparity map with missing values (seeds/000 §III).
+    Disparity(crate::images::DisparityImage),
 }
 
 impl Reading {
@@ -131,6 +136,8 @@ impl Reading {
             Reading::Depth(d) => d.stamp,
             Reading::Wifi(w) => w.stamp,
             Reading::Landmarks(l) => l.stamp,
+            Reading::Intensity(i) => i.stamp,
+            Reading::Disparity(d) => d.stamp,
         }
     }
 }
