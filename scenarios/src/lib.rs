@@ -8,6 +8,7 @@ pub mod bench_appearance;
 pub mod cgr_localizers;
 pub mod dataset;
 pub mod error;
+pub mod error_maps;
 pub mod expect;
 pub mod inspect;
 pub mod localizers;
