@@ -14,12 +14,20 @@
 //!   and with γ < γ_n, the pose is set to the node; the first steps after each node are not
 //!   trusted (§IV-B filters the first 30 time steps of 100 ms).
 //!
+//! - Beyond the paper ([`align`]): at verification the current scan is aligned with the node's
+//!   training scan (the r_t and x_t of the node's feature triplet, eq. 5), and the pose is
+//!   reset to the node's training pose corrected by the measured offset (x, y and θ), not
+//!   only to the node's x, y (`scan_alignment`, on by default; off is the paper's reset).
+//!
 //! Where the paper leaves a choice open, the choice and its reason are stated at the item.
+
+pub mod align;
 
 use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use align::{AlignParams, ScanPoints};
 use atrium_robots::node_route::Leg;
-use atrium_robots::{normalize_angle, Pose2, Reading};
+use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -211,8 +219,22 @@ pub struct LandmarkFilterParams {
     /// must be for the test to be made, the model radius where the landmark must really be
     /// seen from. A node verified at the rim of ρ leaves the pose off by ρ, and that offset
     /// is carried into the next leg (Table I resets x, y to the node); recognising the node
-    /// only near its centre keeps the offsets from adding up from node to node.
+    /// only near its centre keeps the offsets from adding up from node to node. With
+    /// `scan_alignment` the offset is measured instead of inherited, and the model radius
+    /// should cover where the robot really arrives (the bundled scenario uses ρ).
     pub model_radius: f64,
+    /// Beyond 002: at verification, align the scan with the node's training scan and reset
+    /// the pose to the training pose corrected by the measured offset (x, y, θ) — see
+    /// [`align`]. When false, or when the alignment is poor, the reset is Table I's
+    /// (x, y = x_n, y_n, heading kept).
+    pub scan_alignment: bool,
+    /// Training runs (the paper's "training run", repeated with this many seeds so that γ_n
+    /// and the conditional average over the laser's noise rather than one draw of it).
+    pub training_runs: usize,
+    /// Heading offsets of the survey around each node, rad: the survey scans are taken at
+    /// the leg's heading and at ± this, because a robot arrives with a heading error of a
+    /// few degrees and a 180° scan turned by that shifts ranges between histogram bins.
+    pub survey_heading: f64,
 }
 
 impl Default for LandmarkFilterParams {
@@ -225,6 +247,9 @@ impl Default for LandmarkFilterParams {
             histogram_range: 0.0,
             laser: String::new(),
             model_radius: 0.0,
+            scan_alignment: true,
+            training_runs: 3,
+            survey_heading: 0.07,
         }
     }
 }
@@ -259,6 +284,15 @@ impl LandmarkFilterParams {
             return Err(format!(
                 "model_radius: must lie in [0, rho] (0: rho / 2), got {}",
                 self.model_radius
+            ));
+        }
+        if self.training_runs == 0 {
+            return Err("training_runs: must be at least 1".into());
+        }
+        if !(self.survey_heading.is_finite() && (0.0..0.5).contains(&self.survey_heading)) {
+            return Err(format!(
+                "survey_heading: must lie in [0, 0.5) rad, got {}",
+                self.survey_heading
             ));
         }
         if !(self.histogram_range.is_finite() && self.histogram_range >= 0.0) {
@@ -296,6 +330,49 @@ pub struct TrainingScan {
     pub target: usize,
     pub ranges: Vec<f64>,
     pub range_max: f64,
+    pub geometry: ScanGeometry,
+}
+
+/// Where a scan's beams point: what the alignment needs besides the ranges.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanGeometry {
+    /// The laser frame in the robot's base frame.
+    pub mount: Pose2,
+    pub angle_min: f64,
+    pub angle_increment: f64,
+    pub range_min: f64,
+}
+
+impl Default for ScanGeometry {
+    /// A 180-beam scan over 180° (002 §III-B) at the base's origin.
+    fn default() -> Self {
+        Self {
+            mount: Pose2::new(0.0, 0.0, 0.0),
+            angle_min: -std::f64::consts::FRAC_PI_2,
+            angle_increment: std::f64::consts::PI / 179.0,
+            range_min: 0.0,
+        }
+    }
+}
+
+impl ScanGeometry {
+    pub fn of(scan: &LaserScan) -> ScanGeometry {
+        ScanGeometry {
+            mount: scan.mount,
+            angle_min: scan.angle_min,
+            angle_increment: scan.angle_increment,
+            range_min: scan.range_min,
+        }
+    }
+}
+
+/// The node's own training scan and the robot pose it was taken from (r_t and x_t of the
+/// feature triplet, 002 eq. 5), for [`align`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeReference {
+    pub pose: Pose2,
+    pub mount: Pose2,
+    pub points: ScanPoints,
 }
 
 /// What the training run taught about one node (the feature set of 002 eq. 5 and 7).
@@ -314,6 +391,9 @@ pub struct NodeModel {
     pub gamma_outside_min: Option<f64>,
     /// Training scans within the model radius (teach run and survey).
     pub scans_inside: usize,
+    /// The training scan taken closest to the node, for the alignment at verification.
+    #[serde(skip)]
+    pub reference: Option<NodeReference>,
 }
 
 /// Learns every node's model from a training run (002 §III-A, §IV-B).
@@ -326,7 +406,12 @@ pub struct NodeModel {
 ///   for it (teach run and survey).
 /// - γ_n = `gamma_margin` × the largest γ seen within the model radius: replaying the teach
 ///   run through the recursion exactly as the filter will (reset at each node, warm-up),
-///   and, for the survey scans, the γ the recursion settles on at each spot.
+///   and, for the survey scans, the γ the recursion settles on at each spot. When that would
+///   reach the smallest γ seen farther than 2ρ from the node on the same leg (the landmark
+///   would then be "recognised" away from it), γ_n is the geometric mean of the two instead:
+///   the threshold halfway, on the log scale γ lives on, between near and far.
+/// - The reference for the alignment at verification: the training scan taken closest to the
+///   node while heading for it.
 pub fn train(
     nodes: &[[f64; 2]],
     scans: &[TrainingScan],
@@ -407,17 +492,49 @@ pub fn train(
                 params.warmup_steps
             ))
         })?;
+        let mut gamma_n = params.gamma_margin * inside_max;
+        if let Some(out) = outside_min {
+            if out > inside_max && inside_max > 0.0 && gamma_n >= out {
+                gamma_n = (inside_max * out).sqrt();
+            }
+        }
+        let reference = scans
+            .iter()
+            .chain(survey)
+            .filter(|s| s.target == n)
+            .min_by(|a, b| {
+                let da = (a.pose.x - node[0]).hypot(a.pose.y - node[1]);
+                let db = (b.pose.x - node[0]).hypot(b.pose.y - node[1]);
+                da.total_cmp(&db)
+            })
+            .map(|s| NodeReference {
+                pose: s.pose,
+                mount: s.geometry.mount,
+                points: ScanPoints::from_ranges(
+                    &s.ranges,
+                    s.geometry.angle_min,
+                    s.geometry.angle_increment,
+                    s.geometry.range_min,
+                    s.range_max,
+                ),
+            });
         models.push(NodeModel {
             node: *node,
             conditional: *model.conditional(),
-            gamma_n: params.gamma_margin * inside_max,
+            gamma_n,
             gamma_inside_max: inside_max,
             gamma_outside_min: outside_min,
             scans_inside: count,
+            reference,
         });
     }
     Ok(models)
 }
+
+/// Position standard deviation right after an aligned reset, m: the alignment of two scans of
+/// a static scene is good to millimetres in simulation; 5 cm leaves room for a real scene
+/// that changed a little since training.
+const ALIGNED_SIGMA: f64 = 0.05;
 
 /// What the filter did at a node.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -428,12 +545,18 @@ pub struct NodeEvent {
     pub verified: bool,
     /// γ at that moment (NaN when no scan had been seen on the leg).
     pub gamma: f64,
+    /// The filter's pose right after the reset.
+    pub pose: Pose2,
+    /// Whether the reset came from aligning the scan with the node's training scan (false:
+    /// Table I's x, y = x_n, y_n).
+    pub aligned: bool,
 }
 
 /// Node-based odometry with landmark verification (002 Table I and Algorithm 1) as a
 /// [`Localizer`]: the pose is the odometry carried along the node list, and its x, y are set to
 /// a node when the node is verified (or, failing that, reached by odometry: Table I update()).
-/// The heading is never reset (Table I resets x and y only).
+/// Table I resets x and y only; with `scan_alignment` (beyond the paper) a verified node
+/// resets x, y and θ to the node's training pose corrected by the scan alignment.
 #[derive(Debug, Clone)]
 pub struct LandmarkFilter {
     name: String,
@@ -448,6 +571,12 @@ pub struct LandmarkFilter {
     gamma: f64,
     /// Distance and rotation since the last node, for the covariance.
     since_node: (f64, f64),
+    /// Distance and rotation since the heading was last fixed (the start, or an aligned
+    /// reset: Table I's reset leaves the heading to odometry).
+    since_heading_fix: (f64, f64),
+    /// Position uncertainty right after the last reset, m: ρ for Table I's reset, a few
+    /// centimetres for an aligned one.
+    fix_sigma: f64,
     pending: Option<usize>,
     events: Vec<NodeEvent>,
 }
@@ -490,6 +619,7 @@ impl LandmarkFilter {
         });
         Ok(LandmarkFilter {
             name: name.to_owned(),
+            fix_sigma: params.rho,
             params,
             gamma_d,
             models,
@@ -500,6 +630,7 @@ impl LandmarkFilter {
             leg,
             gamma: f64::NAN,
             since_node: (0.0, 0.0),
+            since_heading_fix: (0.0, 0.0),
             pending: None,
             events: Vec::new(),
         })
@@ -523,21 +654,66 @@ impl LandmarkFilter {
         self.gamma
     }
 
-    /// Table I update(): x = x_n, y = y_n, next node.
-    fn arrive(&mut self, verified: bool) {
+    /// The pose the scan says the robot has, from its alignment with the node's training
+    /// scan (None when alignment is off, the node has no reference or the match is poor).
+    fn aligned_pose(&self, scan: &LaserScan) -> Option<Pose2> {
+        if !self.params.scan_alignment {
+            return None;
+        }
+        let reference = self.models[self.next].reference.as_ref()?;
+        let current = ScanPoints::from_ranges(
+            &scan.ranges,
+            scan.angle_min,
+            scan.angle_increment,
+            scan.range_min,
+            scan.range_max,
+        );
+        let laser_ref = reference.pose.compose(&reference.mount);
+        // Start from where odometry believes the laser is, relative to the reference laser.
+        let initial = laser_ref.between(&self.pose.compose(&scan.mount));
+        let a = align::align(
+            &reference.points,
+            &current,
+            initial,
+            &AlignParams::default(),
+        )?;
+        let pose = laser_ref
+            .compose(&a.transform)
+            .compose(&scan.mount.inverse());
+        // A match that puts the robot farther than 4ρ from the node is taken for a false one:
+        // the landmark was just recognised, so the robot is near the node.
         let node = self.models[self.next].node;
+        ((pose.x - node[0]).hypot(pose.y - node[1]) <= 4.0 * self.params.rho).then_some(pose)
+    }
+
+    /// Table I update(): x = x_n, y = y_n, next node; with a scan-aligned pose, that pose.
+    fn arrive(&mut self, verified: bool, aligned: Option<Pose2>) {
+        let node = self.models[self.next].node;
+        match aligned {
+            Some(p) => self.pose = Pose2::new(p.x, p.y, normalize_angle(p.theta)),
+            None => {
+                self.pose.x = node[0];
+                self.pose.y = node[1];
+            }
+        }
         self.events.push(NodeEvent {
             node: self.next,
             stamp: self.stamp,
             verified,
             gamma: self.gamma,
+            pose: self.pose,
+            aligned: aligned.is_some(),
         });
         if verified {
             self.pending = Some(self.next);
         }
-        self.pose.x = node[0];
-        self.pose.y = node[1];
         self.since_node = (0.0, 0.0);
+        if aligned.is_some() {
+            self.since_heading_fix = (0.0, 0.0);
+            self.fix_sigma = ALIGNED_SIGMA;
+        } else {
+            self.fix_sigma = self.params.rho;
+        }
         self.recursion[self.next].reset();
         self.next += 1;
         self.gamma = f64::NAN;
@@ -561,10 +737,12 @@ impl Localizer for LandmarkFilter {
         self.pose = self.pose.compose(&step);
         self.since_node.0 += step.x.hypot(step.y);
         self.since_node.1 += normalize_angle(step.theta).abs();
+        self.since_heading_fix.0 += step.x.hypot(step.y);
+        self.since_heading_fix.1 += normalize_angle(step.theta).abs();
         self.stamp = delta.stamp;
         if let Some(leg) = self.leg {
             if leg.reached(&self.pose, self.gamma_d) {
-                self.arrive(false);
+                self.arrive(false, None);
             }
         }
     }
@@ -588,17 +766,19 @@ impl Localizer for LandmarkFilter {
             && leg.current(&self.pose) <= self.params.rho
             && self.gamma < self.models[self.next].gamma_n
         {
-            self.arrive(true);
+            let aligned = self.aligned_pose(scan);
+            self.arrive(true, aligned);
         }
     }
 
-    /// Covariance: a node fixes the position to within ρ (the verification radius), and
-    /// odometry drift then grows with the distance and rotation since (the same rates as
-    /// [`crate::DriftModel`]'s defaults).
+    /// Covariance: Table I's reset fixes the position to within ρ (the verification radius)
+    /// and leaves the heading to odometry; an aligned reset fixes both to within
+    /// [`ALIGNED_SIGMA`] and a negligible angle. Odometry drift then grows with the distance
+    /// and rotation since (the same rates as [`crate::DriftModel`]'s defaults).
     fn estimate(&self) -> Estimate {
         let d = crate::DriftModel::default();
-        let s_xy = self.params.rho + d.k_d * self.since_node.0;
-        let s_th = d.k_theta * self.since_node.0 + d.k_r * self.since_node.1;
+        let s_xy = self.fix_sigma + d.k_d * self.since_node.0;
+        let s_th = d.k_theta * self.since_heading_fix.0 + d.k_r * self.since_heading_fix.1;
         Estimate {
             stamp: self.stamp,
             pose: self.pose,

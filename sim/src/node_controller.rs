@@ -203,12 +203,17 @@ impl NodeController {
 
     /// Algorithm 1 lines 12–15: a landmark filter verified node `node`. Applied (stop, pose
     /// to the node, next node) only when `node` is the one being approached and the robot is
-    /// moving toward it; returns whether it was.
-    pub fn verify(&mut self, node: usize, stamp: f64) -> bool {
+    /// moving toward it; returns whether it was. `pose`, when given, is the filter's pose
+    /// after its reset (the node corrected by the measured offset, heading included): the
+    /// controller then steers on it; `None` is Table I's update() (x, y = x_n, y_n).
+    pub fn verify(&mut self, node: usize, stamp: f64, pose: Option<Pose2>) -> bool {
         if node != self.next || self.phase != Phase::Move {
             return false;
         }
         self.arrive(true, stamp);
+        if let Some(p) = pose.filter(Pose2::is_finite) {
+            self.pose = p;
+        }
         true
     }
 
@@ -396,7 +401,7 @@ mod tests {
         )
         .unwrap();
         // Not while turning, not for another node.
-        assert!(!c.verify(0, 0.0));
+        assert!(!c.verify(0, 0.0, None));
         let dt = 0.005;
         let mut pose = Pose2::default();
         let d = drive();
@@ -407,8 +412,8 @@ mod tests {
             c.odometry(pose, 0.0);
         }
         assert_eq!(c.next_node(), 0);
-        assert!(!c.verify(1, 1.0));
-        assert!(c.verify(0, 1.0));
+        assert!(!c.verify(1, 1.0, None));
+        assert!(c.verify(0, 1.0, None));
         assert_eq!(c.next_node(), 1);
         assert!(c.turning());
         let a = c.arrivals()[0];
@@ -416,6 +421,17 @@ mod tests {
         assert_eq!((c.pose().x, c.pose().y), (5.0, 0.0));
         // The heading is kept (Table I resets x and y only).
         assert!((c.pose().theta - pose.theta).abs() < 1e-12);
+        // Node 1 verified with the filter's corrected pose: the controller takes all of it.
+        while c.turning() {
+            let (l, r) = c.update(dt);
+            let (v, w) = d.body_velocity(l, r);
+            pose = DiffDrive::integrate(&pose, (v - 0.28 * w) * dt, (v + 0.28 * w) * dt, 0.56);
+            c.odometry(pose, 0.0);
+        }
+        let corrected = Pose2::new(5.1, 4.9, 1.5);
+        assert!(c.verify(1, 2.0, Some(corrected)));
+        assert_eq!(c.pose(), corrected);
+        assert!(c.finished());
     }
 
     #[test]

@@ -106,6 +106,7 @@ fn model_at(node: [f64; 2], r: &[f64], gamma_n: f64) -> NodeModel {
         gamma_inside_max: gamma_n,
         gamma_outside_min: None,
         scans_inside: 1,
+        reference: None,
     }
 }
 
@@ -204,6 +205,7 @@ fn training_learns_the_conditional_and_gamma_n() {
             target: 0,
             ranges: r,
             range_max: 8.0,
+            geometry: Default::default(),
         });
     }
     // Model radius = ρ: every scan within 0.25 m of the node counts.
@@ -222,6 +224,16 @@ fn training_learns_the_conditional_and_gamma_n() {
     assert!((m.gamma_n - 1.5 * m.gamma_inside_max).abs() < 1e-15);
     // Far from the node γ stays above the threshold: the landmark tells the node apart.
     assert!(m.gamma_outside_min.unwrap() > m.gamma_n);
+    // A margin that would reach the far γ is cut to the geometric mean of near and far.
+    let wide = LandmarkFilterParams {
+        gamma_margin: 1e9,
+        ..params.clone()
+    };
+    let w = &train(&nodes, &scans, &[], &wide).unwrap()[0];
+    let (inside, outside) = (w.gamma_inside_max, w.gamma_outside_min.unwrap());
+    assert!(inside > 0.0 && outside > inside);
+    assert!((w.gamma_n - (inside * outside).sqrt()).abs() < 1e-15 * outside.max(1.0));
+    assert!(inside < w.gamma_n && w.gamma_n < outside);
 
     // No scan inside ρ: a clear error naming the node.
     let far: Vec<TrainingScan> = scans.iter().take(30).cloned().collect();
@@ -234,6 +246,7 @@ fn training_learns_the_conditional_and_gamma_n() {
             target: 0,
             ranges: ranges(60 + 5 * k, 0.7, 3.5),
             range_max: 8.0,
+            geometry: Default::default(),
         })
         .collect();
     let m = &train(&nodes, &far, &survey, &params).unwrap()[0];
@@ -281,5 +294,15 @@ fn bad_parameters_are_rejected() {
         ..Default::default()
     };
     assert!(p.validate().unwrap_err().contains("model_radius"));
+    let p = LandmarkFilterParams {
+        training_runs: 0,
+        ..Default::default()
+    };
+    assert!(p.validate().unwrap_err().contains("training_runs"));
+    let p = LandmarkFilterParams {
+        survey_heading: -0.1,
+        ..Default::default()
+    };
+    assert!(p.validate().unwrap_err().contains("survey_heading"));
     assert!(train(&[], &[], &[], &LandmarkFilterParams::default()).is_err());
 }
