@@ -38,7 +38,7 @@ impl StereoSpec {
             baseline: 0.09,
             max_disparity: 32,
             window_radius: 3,
-            texture_threshold: 0.015,
+            texture_threshold: 0.012,
             uniqueness: 0.9,
             lr_tolerance: 1.0,
         }
@@ -248,30 +248,39 @@ impl StereoRig {
             let cost = &mut self.cost[d * n..(d + 1) * n];
             box_sums(&self.integral_cost, w, h, r, cost);
         }
-        let area = ((2 * r + 1) * (2 * r + 1)) as f64;
         let thr2 = (self.spec.texture_threshold as f64).powi(2);
-        for v in r..h - r {
+        for v in 0..h {
+            // Windows are clipped at the top and bottom of the image, so those rows are
+            // not missing by construction; matching runs along rows and needs the full
+            // window width, so the r columns at each side stay missing.
             for u in r..w - r {
                 let i = v * w + u;
-                let s = window_sum(&self.integral, w, u, v, r);
-                let s2 = window_sum(&self.integral2, w, u, v, r);
+                let area = window_area(w, h, u, v, r);
+                let s = window_sum(&self.integral, w, h, u, v, r);
+                let s2 = window_sum(&self.integral2, w, h, u, v, r);
                 let var = s2 / area - (s / area).powi(2);
                 if var < thr2 {
                     continue;
                 }
-                // Only disparities whose window lies inside the right image.
-                let dlim = dmax.min(u - r);
+                // Only disparities whose matching pixel lies inside the right image.
+                let dlim = dmax.min(u);
                 let Some((best, c0, second)) = best_two(&self.cost, n, i, dlim) else {
                     continue;
                 };
                 if c0 >= self.spec.uniqueness * second {
                     continue;
                 }
+                // Near the left border the search range is cut short by the image: a
+                // minimum at its end may be the slope of one beyond it (a point the right
+                // camera does not see), not a reliable match.
+                if best == dlim && dlim < dmax {
+                    continue;
+                }
                 // Left-right check: the right pixel's own best match comes back here.
                 let ur = u - best;
                 let mut rbest = 0usize;
                 let mut rc = f32::INFINITY;
-                for d in 0..=dmax.min(w - r - 1 - ur) {
+                for d in 0..=dmax.min(w - 1 - ur) {
                     let c = self.cost[d * n + v * w + ur + d];
                     if c < rc {
                         rc = c;
@@ -314,20 +323,38 @@ fn integral_image(img: &[f32], w: usize, h: usize, out: &mut [f64], squared: boo
     }
 }
 
-/// Sum over the (2r + 1)² window centred on (u, v) (which must fit in the image).
+/// The (2r + 1)² window centred on (u, v), clipped to the w × h image: (u0, v0, u1, v1).
 #[inline]
-fn window_sum(int: &[f64], w: usize, u: usize, v: usize, r: usize) -> f64 {
+fn window(w: usize, h: usize, u: usize, v: usize, r: usize) -> (usize, usize, usize, usize) {
+    (
+        u.saturating_sub(r),
+        v.saturating_sub(r),
+        (u + r + 1).min(w),
+        (v + r + 1).min(h),
+    )
+}
+
+/// Number of pixels in the clipped window at (u, v).
+#[inline]
+fn window_area(w: usize, h: usize, u: usize, v: usize, r: usize) -> f64 {
+    let (u0, v0, u1, v1) = window(w, h, u, v, r);
+    ((u1 - u0) * (v1 - v0)) as f64
+}
+
+/// Sum over the clipped window at (u, v).
+#[inline]
+fn window_sum(int: &[f64], w: usize, h: usize, u: usize, v: usize, r: usize) -> f64 {
     let stride = w + 1;
-    let (u0, v0, u1, v1) = (u - r, v - r, u + r + 1, v + r + 1);
+    let (u0, v0, u1, v1) = window(w, h, u, v, r);
     int[v1 * stride + u1] - int[v0 * stride + u1] - int[v1 * stride + u0] + int[v0 * stride + u0]
 }
 
-/// Window sums for every pixel whose window fits (others: +∞).
+/// Window sums for every pixel (windows clipped at the border). The costs of one pixel
+/// always share its window, so they stay comparable across disparities.
 fn box_sums(int: &[f64], w: usize, h: usize, r: usize, out: &mut [f32]) {
-    out.fill(f32::INFINITY);
-    for v in r..h.saturating_sub(r) {
-        for u in r..w.saturating_sub(r) {
-            out[v * w + u] = window_sum(int, w, u, v, r) as f32;
+    for v in 0..h {
+        for u in 0..w {
+            out[v * w + u] = window_sum(int, w, h, u, v, r) as f32;
         }
     }
 }
@@ -391,34 +418,76 @@ mod tests {
         (world, scene)
     }
 
+    /// The default office scene: 40 seeded poses (position and heading uniform) over the
+    /// lab's 9 × 5 m training area at the default 160 × 120, under `tube` light.
+    fn default_scene_poses() -> Vec<Pose2> {
+        use rand::Rng;
+        let mut g = ChaCha8Rng::seed_from_u64(100);
+        (0..40)
+            .map(|_| {
+                Pose2::new(
+                    g.random_range(1.0..10.0),
+                    g.random_range(1.0..6.0),
+                    g.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+                )
+            })
+            .collect()
+    }
+
+    /// Issue 5 item 2 (seeds/000 §III, §VII): on the default office scenes about 20 % of the
+    /// pixels are missing, mostly in textureless regions, and at least 95 % of the valid
+    /// disparities are within 1 px of b·f/z.
     #[test]
     fn lab_disparity_is_sparse_and_agrees_with_the_truth() {
         let (world, scene) = lab();
         let shader = Shader::new(&world, &scene, LightingCondition::Tube);
-        let mut rig = StereoRig::new(StereoSpec::paper("stereo"), "stereo").unwrap();
+        let spec = StereoSpec::paper("stereo");
+        assert_eq!((spec.camera.width, spec.camera.height), (160, 120));
+        let mut rig = StereoRig::new(spec.clone(), "stereo").unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let (mut good, mut missing, mut frames) = (0.0, 0.0, 0.0);
-        for (i, p) in [
-            Pose2::new(2.0, 2.0, 0.3),
-            Pose2::new(5.5, 3.5, 1.6),
-            Pose2::new(8.0, 4.0, 3.0),
-            Pose2::new(3.0, 5.0, -1.2),
-            Pose2::new(9.0, 1.5, -0.2),
-            Pose2::new(5.0, 2.0, -2.4),
-        ]
-        .iter()
-        .enumerate()
-        {
+        let (w, h, r) = (160, 120, spec.window_radius);
+        let (mut valid, mut good, mut missing, mut textureless) = (0usize, 0usize, 0usize, 0usize);
+        let mut integral = vec![0.0; (w + 1) * (h + 1)];
+        let mut integral2 = vec![0.0; (w + 1) * (h + 1)];
+        let thr2 = (spec.texture_threshold as f64).powi(2);
+        for (i, p) in default_scene_poses().iter().enumerate() {
             let f = rig.frame(&scene, &shader, &floor_pose(p), i as f64, &mut rng);
-            let (g, m) = disparity_quality(&f.disparity.disparity, &f.truth, 1.0);
-            eprintln!("pose {p:?}: within 1 px {g:.3}, missing {m:.3}");
-            good += g;
-            missing += m;
-            frames += 1.0;
+            integral_image(&f.left, w, h, &mut integral, false);
+            integral_image(&f.left, w, h, &mut integral2, true);
+            for (k, (d, t)) in f.disparity.disparity.iter().zip(&f.truth).enumerate() {
+                if d.is_nan() {
+                    missing += 1;
+                    let (u, v) = (k % w, k / w);
+                    let a = window_area(w, h, u, v, r);
+                    let s = window_sum(&integral, w, h, u, v, r);
+                    let s2 = window_sum(&integral2, w, h, u, v, r);
+                    if s2 / a - (s / a).powi(2) < thr2 {
+                        textureless += 1;
+                    }
+                } else {
+                    valid += 1;
+                    if (d - t).abs() <= 1.0 {
+                        good += 1;
+                    }
+                }
+            }
         }
-        let (good, missing) = (good / frames, missing / frames);
-        assert!(good >= 0.95, "only {good} of valid disparities within 1 px");
-        assert!((0.1..0.45).contains(&missing), "missing fraction {missing}");
+        let within = good as f64 / valid as f64;
+        let missing_frac = missing as f64 / (missing + valid) as f64;
+        let textureless_share = textureless as f64 / missing as f64;
+        eprintln!(
+            "within 1 px {within:.3}, missing {missing_frac:.3}, textureless share of missing \
+             {textureless_share:.3}"
+        );
+        assert!(
+            within >= 0.95,
+            "only {within} of valid disparities within 1 px"
+        );
+        assert!(
+            (0.15..=0.25).contains(&missing_frac),
+            "missing fraction {missing_frac}"
+        );
+        assert!(textureless_share > 0.5, "{textureless_share}");
         let mut out = vec![0.0; 10];
         assert!(rig
             .match_pair(&[0.0; 10], &[0.0; 10], &mut out)

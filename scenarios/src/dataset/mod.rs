@@ -8,6 +8,8 @@
 //! |---|---|---|
 //! | `/scan/<laser>` | `foxglove.LaserScan` | each laser, in its URDF link's frame; channel metadata: mount, angles, range limits |
 //! | `/depth/<camera>` | `foxglove.RawImage` | depth, `32FC1` metres, NaN = invalid (REP 118); channel metadata: mount, intrinsics |
+//! | `/image/<camera>` | `foxglove.RawImage` | intensity, `mono8` (grey /255); a stereo rig's left image under the rig's name; channel metadata: mount, intrinsics |
+//! | `/disparity/<rig>` | `foxglove.RawImage` | stereo disparity, `32FC1` pixels, NaN = missing; channel metadata: fx, baseline |
 //! | `/wifi/<sensor>` | `atrium.WifiScan` | access point, channel, RSSI (dBm) per AP heard |
 //! | `/landmarks/<sensor>` | `atrium.LandmarkDetections` | range-bearing detections |
 //! | `/odom` | `foxglove.PoseInFrame` | wheel odometry pose in `odom` |
@@ -27,6 +29,7 @@
 
 pub mod cli;
 pub mod codec;
+pub mod images;
 pub mod record;
 pub mod replay;
 pub mod scene;
@@ -38,6 +41,8 @@ pub use replay::{replay, ReplayError, ReplayOptions};
 pub mod topics {
     pub const SCAN_PREFIX: &str = "/scan/";
     pub const DEPTH_PREFIX: &str = "/depth/";
+    pub const IMAGE_PREFIX: &str = "/image/";
+    pub const DISPARITY_PREFIX: &str = "/disparity/";
     pub const WIFI_PREFIX: &str = "/wifi/";
     pub const LANDMARKS_PREFIX: &str = "/landmarks/";
     pub const ESTIMATE_PREFIX: &str = "/estimate/";

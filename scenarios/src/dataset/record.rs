@@ -384,6 +384,45 @@ impl Recorder {
                 self.image_msg = msg;
                 res?;
             }
+            Reading::Intensity(i) => {
+                let topic = format!("{}{}", topics::IMAGE_PREFIX, i.sensor);
+                if !self.channels.contains_key(&topic) {
+                    // The camera's frame, once, before its first image.
+                    let tf = fg::FrameTransforms {
+                        transforms: vec![codec::frame_transform(
+                            ns,
+                            &self.base_link,
+                            &i.sensor,
+                            &i.mount,
+                        )],
+                    };
+                    let ch = self.channel(topics::TF, self.schemas.tf, BTreeMap::new)?;
+                    self.put_proto(ch, ns, &tf)?;
+                }
+                let ch = self.channel(&topic, self.schemas.image, || {
+                    super::images::intensity_metadata(i)
+                })?;
+                let mut msg = std::mem::take(&mut self.image_msg);
+                let mut data = std::mem::take(&mut self.image_buf);
+                super::images::fill_intensity(&mut msg, &mut data, ns, &i.sensor, i);
+                let res = self.put_proto(ch, ns, &msg);
+                self.image_buf = Vec::from(std::mem::take(&mut msg.data));
+                self.image_msg = msg;
+                res?;
+            }
+            Reading::Disparity(d) => {
+                let topic = format!("{}{}", topics::DISPARITY_PREFIX, d.sensor);
+                let ch = self.channel(&topic, self.schemas.image, || {
+                    super::images::disparity_metadata(d)
+                })?;
+                let mut msg = std::mem::take(&mut self.image_msg);
+                let mut data = std::mem::take(&mut self.image_buf);
+                super::images::fill_disparity(&mut msg, &mut data, ns, &d.sensor, d);
+                let res = self.put_proto(ch, ns, &msg);
+                self.image_buf = Vec::from(std::mem::take(&mut msg.data));
+                self.image_msg = msg;
+                res?;
+            }
             Reading::Wifi(w) => {
                 let topic = format!("{}{}", topics::WIFI_PREFIX, w.sensor);
                 let ch = self.channel(&topic, self.schemas.wifi, BTreeMap::new)?;

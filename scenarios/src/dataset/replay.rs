@@ -56,6 +56,8 @@ fn expected_schema(topic: &str) -> Option<(&'static str, &'static str)> {
         topics::SCENE => ("foxglove.SceneUpdate", "protobuf"),
         t if t.starts_with(topics::SCAN_PREFIX) => ("foxglove.LaserScan", "protobuf"),
         t if t.starts_with(topics::DEPTH_PREFIX) => ("foxglove.RawImage", "protobuf"),
+        t if t.starts_with(topics::IMAGE_PREFIX) => ("foxglove.RawImage", "protobuf"),
+        t if t.starts_with(topics::DISPARITY_PREFIX) => ("foxglove.RawImage", "protobuf"),
         t if t.starts_with(topics::WIFI_PREFIX) => ("atrium.WifiScan", "json"),
         t if t.starts_with(topics::LANDMARKS_PREFIX) => ("atrium.LandmarkDetections", "json"),
         t if t.starts_with(topics::ESTIMATE_PREFIX) => pose,
@@ -397,6 +399,20 @@ impl<'a> ReplayStream<'a> {
                 let d = codec::depth_from_message(&msg, &ch.metadata, sensor, stamp)
                     .map_err(|e| fail(&e))?;
                 readings.push(Reading::Depth(d));
+            }
+            t if t.starts_with(topics::IMAGE_PREFIX) => {
+                let msg = fg::RawImage::decode(data).map_err(|e| fail(&e))?;
+                let sensor = &t[topics::IMAGE_PREFIX.len()..];
+                let i = super::images::intensity_from_message(&msg, &ch.metadata, sensor, stamp)
+                    .map_err(|e| fail(&e))?;
+                readings.push(Reading::Intensity(i));
+            }
+            t if t.starts_with(topics::DISPARITY_PREFIX) => {
+                let msg = fg::RawImage::decode(data).map_err(|e| fail(&e))?;
+                let sensor = &t[topics::DISPARITY_PREFIX.len()..];
+                let d = super::images::disparity_from_message(&msg, &ch.metadata, sensor, stamp)
+                    .map_err(|e| fail(&e))?;
+                readings.push(Reading::Disparity(d));
             }
             t if t.starts_with(topics::WIFI_PREFIX) => {
                 let w: WifiScan = serde_json::from_slice(data).map_err(|e| fail(&e))?;
