@@ -1,0 +1,631 @@
+//! Monte Carlo localization on the omnicam eigenimage map of seeds/001_c53d039653973f41.txt
+//! (second part, its last paragraph: "the robot takes an omnicam image from its current
+//! position, projects the image to an l-dimensional vector using P, and calculates the sum of
+//! square differences for each point of the map to generate an energy function. This energy
+//! function is related to the probability function of the location of the robot according
+//! to the sensor measurement and serves as input to the Monte Carlo Localization
+//! algorithm").
+//!
+//! 001 leaves the relation between energy and probability open; here it is the Gaussian one
+//! the energy's form implies: the energy E(x) is a squared distance in feature space, so
+//! p(z | x) ∝ exp(−E(x) / 2σ²), with E at a particle's pose from [`OmniMap::energy_at`]
+//! (features interpolated between nodes and rotations, 001: "points between the samples are
+//! obtained by interpolation"). The feature-space σ defaults to the map's own scale:
+//! σ² = [`OmniMap::step_energy`] / 2, so a pose one grid step from a training pose is e⁻¹ as
+//! likely. Because the features change in steps of the grid, the likelihood has a floor
+//! (`outlier`, relative to the best particle) that keeps one odd panorama from wiping out the
+//! right hypothesis.
+//!
+//! For a start anywhere in the map, a fraction `inject` of the particles at each resampling
+//! is drawn from the energy function itself over all (node, rotation) pairs (the "sensor
+//! resetting" / mixture proposal of Lenser and Veloso, Thrun et al.): 001's map gives that
+//! proposal for free, since the energy at every node and rotation is one table lookup.
+
+use crate::ceiling_mcl::sample_initial_belief;
+use crate::error::LocalizationError;
+use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::mcl::InitialBelief;
+use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::omni_map::OmniMap;
+use crate::particles::{
+    accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
+};
+use crate::resampling::low_variance_indices;
+use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
+use nalgebra::Matrix3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Parameters of [`OmniMcl`], as written in a scenario. Every field has a default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OmniMclParams {
+    /// Particles. Default 2000.
+    pub particles: usize,
+    /// Odometry motion model α1–α4. Default 0.05 each.
+    pub alpha: [f64; 4],
+    /// Feature-space standard deviation of the energy likelihood; absent: from the map,
+    /// σ² = step_energy / 2.
+    pub sigma: Option<f64>,
+    /// Likelihood floor relative to the best particle of the update. Default 0.01.
+    pub outlier: f64,
+    /// Fraction of the particles drawn from the energy function at each resampling.
+    /// Default 0.02 (0 turns it off).
+    pub inject: f64,
+    /// Resample when the effective sample size falls below this fraction. Default 0.5.
+    pub resample_ess: f64,
+    /// Name of the panoramic camera whose intensity readings are used. Default "omni".
+    pub sensor: String,
+}
+
+impl Default for OmniMclParams {
+    fn default() -> Self {
+        Self {
+            particles: 2000,
+            alpha: [0.05; 4],
+            sigma: None,
+            outlier: 0.01,
+            inject: 0.02,
+            resample_ess: 0.5,
+            sensor: "omni".into(),
+        }
+    }
+}
+
+impl OmniMclParams {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=1_000_000).contains(&self.particles) {
+            return Err(format!(
+                "particles must be within [1, 1000000], got {}",
+                self.particles
+            ));
+        }
+        for (i, a) in self.alpha.iter().enumerate() {
+            if !(a.is_finite() && *a >= 0.0) {
+                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
+            }
+        }
+        if let Some(s) = self.sigma {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(format!("sigma must be finite and > 0, got {s}"));
+            }
+        }
+        if !(self.outlier > 0.0 && self.outlier < 1.0) {
+            return Err(format!(
+                "outlier must be within (0, 1), got {}",
+                self.outlier
+            ));
+        }
+        if !(0.0..1.0).contains(&self.inject) {
+            return Err(format!("inject must be within [0, 1), got {}", self.inject));
+        }
+        if !(self.resample_ess > 0.0 && self.resample_ess <= 1.0) {
+            return Err(format!(
+                "resample_ess must be within (0, 1], got {}",
+                self.resample_ess
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Particle filter on an [`OmniMap`] (001).
+pub struct OmniMcl {
+    name: String,
+    params: OmniMclParams,
+    map: Arc<OmniMap>,
+    /// 1 / 2σ².
+    inv_two_sigma2: f64,
+    motion: OdometryMotionModel,
+    rng: ChaCha8Rng,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    th: Vec<f64>,
+    w: Vec<f64>,
+    x2: Vec<f64>,
+    y2: Vec<f64>,
+    th2: Vec<f64>,
+    idx: Vec<usize>,
+    /// Features of the current panorama.
+    feat: Vec<f64>,
+    /// Per-particle log-likelihood of the current update.
+    loglik: Vec<f64>,
+    /// Energy at every (node, rotation), then the cumulative proposal over them.
+    table: Vec<f64>,
+    pending: Pose2,
+    stamp: f64,
+    mean: Pose2,
+    covariance: Matrix3<f64>,
+    updates: usize,
+    rejected: usize,
+    last_error: Option<LocalizationError>,
+}
+
+impl OmniMcl {
+    /// A global belief is uniform over the map's node grid (or the given polygons).
+    pub fn new(
+        name: &str,
+        params: OmniMclParams,
+        map: Arc<OmniMap>,
+        init: &InitialBelief,
+        seed: u64,
+    ) -> Result<OmniMcl, LocalizationError> {
+        params
+            .validate()
+            .map_err(|e| LocalizationError::InvalidParameter(format!("omni mcl: {e}")))?;
+        let sigma2 = match params.sigma {
+            Some(s) => s * s,
+            None => 0.5 * map.step_energy(),
+        };
+        if !(sigma2.is_finite() && sigma2 > 0.0) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "omni mcl: the map's neighbouring nodes look identical (step energy {}): give sigma",
+                2.0 * sigma2
+            )));
+        }
+        let m = params.particles;
+        let (nx, ny) = map.nodes();
+        let mut f = OmniMcl {
+            name: name.to_owned(),
+            inv_two_sigma2: 0.5 / sigma2,
+            motion: OdometryMotionModel::new(params.alpha),
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            x: vec![0.0; m],
+            y: vec![0.0; m],
+            th: vec![0.0; m],
+            w: vec![1.0 / m as f64; m],
+            x2: vec![0.0; m],
+            y2: vec![0.0; m],
+            th2: vec![0.0; m],
+            idx: vec![0; m],
+            feat: vec![0.0; map.d()],
+            loglik: vec![0.0; m],
+            table: Vec::with_capacity(nx * ny * map.rotations()),
+            pending: Pose2::default(),
+            stamp: 0.0,
+            mean: Pose2::default(),
+            covariance: Matrix3::zeros(),
+            updates: 0,
+            rejected: 0,
+            last_error: None,
+            params,
+            map,
+        };
+        let extent = f.map.extent();
+        sample_initial_belief(init, extent, &mut f.rng, &mut f.x, &mut f.y, &mut f.th)?;
+        f.compute_estimate();
+        Ok(f)
+    }
+
+    /// The feature-space σ in use.
+    pub fn sigma(&self) -> f64 {
+        (0.5 / self.inv_two_sigma2).sqrt()
+    }
+
+    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
+        (0..self.x.len()).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+    }
+
+    pub fn updates(&self) -> usize {
+        self.updates
+    }
+
+    pub fn rejected(&self) -> usize {
+        self.rejected
+    }
+
+    pub fn last_error(&self) -> Option<&LocalizationError> {
+        self.last_error.as_ref()
+    }
+
+    /// Motion update with the odometry since the last reading, then the panorama `image`
+    /// (row-major, the map's width × height).
+    pub fn observe(&mut self, image: &[f32]) -> Result<(), LocalizationError> {
+        self.map.features_into(image, &mut self.feat)?;
+        self.apply_motion();
+        let m = self.x.len();
+        let mut best = f64::NEG_INFINITY;
+        for i in 0..m {
+            let pose = Pose2::new(self.x[i], self.y[i], self.th[i]);
+            self.loglik[i] = match self.map.energy_at(&self.feat, &pose) {
+                Some(e) => -e * self.inv_two_sigma2,
+                None => f64::NEG_INFINITY,
+            };
+            best = best.max(self.loglik[i]);
+        }
+        let eps = self.params.outlier;
+        let mut sum = 0.0;
+        for i in 0..m {
+            // Relative to the best particle: exp never underflows for all of them at once,
+            // and the floor is a fraction of the best explanation.
+            let l = if best.is_finite() {
+                eps + (1.0 - eps) * (self.loglik[i] - best).exp()
+            } else {
+                1.0
+            };
+            self.w[i] *= l;
+            sum += self.w[i];
+        }
+        if !(sum.is_finite() && sum > 0.0) {
+            self.w.fill(1.0 / m as f64);
+        } else {
+            for w in &mut self.w {
+                *w /= sum;
+            }
+        }
+        self.updates += 1;
+        self.compute_estimate();
+        let ess = 1.0 / self.w.iter().map(|w| w * w).sum::<f64>();
+        if ess < self.params.resample_ess * m as f64 {
+            self.resample();
+            self.compute_estimate();
+        }
+        Ok(())
+    }
+
+    fn resample(&mut self) {
+        let m = self.x.len();
+        if !low_variance_indices(&self.w, &mut self.idx, &mut self.rng) {
+            return;
+        }
+        for k in 0..m {
+            let i = self.idx[k];
+            self.x2[k] = self.x[i];
+            self.y2[k] = self.y[i];
+            self.th2[k] = self.th[i];
+        }
+        std::mem::swap(&mut self.x, &mut self.x2);
+        std::mem::swap(&mut self.y, &mut self.y2);
+        std::mem::swap(&mut self.th, &mut self.th2);
+        self.w.fill(1.0 / m as f64);
+        let k = (self.params.inject * m as f64).round() as usize;
+        if k > 0 {
+            self.inject(k);
+        }
+    }
+
+    /// Replaces `k` particles (at random: after resampling they are interchangeable) by
+    /// draws from exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half
+    /// a grid step and half a rotation step.
+    fn inject(&mut self, k: usize) {
+        self.map.energy(&self.feat, &mut self.table);
+        let emin = self.table.iter().copied().fold(f64::INFINITY, f64::min);
+        if !emin.is_finite() {
+            return;
+        }
+        let mut acc = 0.0;
+        for e in &mut self.table {
+            acc += (-(*e - emin) * self.inv_two_sigma2).exp();
+            *e = acc;
+        }
+        let r = self.map.rotations();
+        let (nx, _) = self.map.nodes();
+        let step = self.map.step();
+        let half_turn = std::f64::consts::PI / r as f64;
+        let m = self.x.len();
+        for _ in 0..k {
+            let u = self.rng.random::<f64>() * acc;
+            let cell = self
+                .table
+                .partition_point(|c| *c <= u)
+                .min(self.table.len() - 1);
+            let (node, rot) = (cell / r, cell % r);
+            let [cx, cy] = self.map.node_position(node % nx, node / nx);
+            let i = self.rng.random_range(0..m);
+            self.x[i] = cx + step * (self.rng.random::<f64>() - 0.5);
+            self.y[i] = cy + step * (self.rng.random::<f64>() - 0.5);
+            self.th[i] = normalize_angle(
+                self.map.heading(rot) + half_turn * (2.0 * self.rng.random::<f64>() - 1.0),
+            );
+        }
+    }
+
+    fn apply_motion(&mut self) {
+        let p = self.pending;
+        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
+            return;
+        }
+        let inc = self.motion.decompose(&Pose2::default(), &p);
+        for i in 0..self.x.len() {
+            let (x, y, th) = apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
+            self.x[i] = x;
+            self.y[i] = y;
+            self.th[i] = th;
+        }
+        self.pending = Pose2::default();
+    }
+
+    fn compute_estimate(&mut self) {
+        let (mean, covariance) = weighted_mean_covariance(&self.x, &self.y, &self.th, &self.w);
+        self.mean = mean;
+        self.covariance = covariance;
+    }
+
+    fn check(&self, img: &IntensityImage) -> Result<(), LocalizationError> {
+        if img.width != self.map.width || img.height != self.map.height {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "omni mcl: panorama from `{}` is {} × {}, the map was trained on {} × {}",
+                img.sensor, img.width, img.height, self.map.width, self.map.height
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl Localizer for OmniMcl {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn predict(&mut self, delta: &OdometryDelta) {
+        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+    }
+
+    /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
+    /// one is counted in [`OmniMcl::rejected`].
+    fn update(&mut self, reading: &Reading) {
+        let Reading::Intensity(img) = reading else {
+            return;
+        };
+        if img.sensor != self.params.sensor {
+            return;
+        }
+        match self.check(img).and_then(|()| self.observe(&img.pixels)) {
+            Ok(()) => self.stamp = self.stamp.max(img.stamp),
+            Err(e) => {
+                self.rejected += 1;
+                self.last_error = Some(e);
+            }
+        }
+    }
+
+    fn estimate(&self) -> Estimate {
+        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+
+    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        if !redraw_gaussian(
+            &mut self.x,
+            &mut self.y,
+            &mut self.th,
+            pose,
+            sigma,
+            &mut self.rng,
+        ) {
+            return false;
+        }
+        let m = self.x.len();
+        self.w.fill(1.0 / m as f64);
+        self.pending = Pose2::default();
+        self.compute_estimate();
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::omni_map::{shift_columns, OmniMapParams};
+    use atrium_robots::Mount3;
+
+    /// A synthetic panorama (as in `omni_map.rs`'s tests): the azimuthal profile of four
+    /// posts seen from (x, y) with heading `theta`.
+    fn panorama(x: f64, y: f64, theta: f64, w: usize, h: usize) -> Vec<f32> {
+        let posts = [
+            (5.0, 1.0, 0.9),
+            (-1.0, 4.0, 0.5),
+            (2.0, -3.0, 0.2),
+            (4.0, 5.0, 0.7),
+        ];
+        let mut img = vec![0.3f32; w * h];
+        for c in 0..w {
+            let az = theta + 2.0 * std::f64::consts::PI * c as f64 / w as f64;
+            for (px, py, b) in posts {
+                let bearing = (py - y).atan2(px - x);
+                let dist = (px - x).hypot(py - y);
+                let da = normalize_angle(bearing - az);
+                let v = b * (-da * da * dist * dist / 0.5).exp();
+                for r in 0..h {
+                    let rows = (h as f64 * (0.3 + 1.0 / dist).min(1.0)) as usize;
+                    if r < rows {
+                        img[r * w + c] += v as f32;
+                    }
+                }
+            }
+        }
+        img
+    }
+
+    fn map() -> Arc<OmniMap> {
+        let (nx, ny) = (9, 7);
+        let imgs: Vec<Vec<f32>> = (0..ny)
+            .flat_map(|j| {
+                (0..nx).map(move |i| panorama(i as f64 * 0.5, j as f64 * 0.5, 0.0, 64, 4))
+            })
+            .collect();
+        let refs: Vec<&[f32]> = imgs.iter().map(|v| v.as_slice()).collect();
+        Arc::new(
+            OmniMap::build(
+                [0.0, 0.0],
+                0.5,
+                nx,
+                ny,
+                64,
+                4,
+                &refs,
+                OmniMapParams {
+                    rotations: 32,
+                    d: 12,
+                    pca_locations: 12,
+                    seed: 1,
+                },
+            )
+            .unwrap(),
+        )
+    }
+
+    fn reading(img: Vec<f32>, stamp: f64) -> Reading {
+        Reading::Intensity(IntensityImage {
+            stamp,
+            sensor: "omni".into(),
+            mount: Mount3::default(),
+            width: 64,
+            height: 4,
+            fx: 64.0 / std::f64::consts::TAU,
+            fy: 1.0,
+            cx: 0.0,
+            cy: 1.5,
+            pixels: img,
+        })
+    }
+
+    /// A straight drive, a turn and another leg, inside the 4 × 3 m map: poses every 10 cm.
+    fn drive() -> Vec<Pose2> {
+        let mut out = Vec::new();
+        for k in 0..30 {
+            out.push(Pose2::new(
+                0.4 + 0.1 * k as f64,
+                0.6 + 0.05 * k as f64,
+                0.46,
+            ));
+        }
+        for k in 0..10 {
+            out.push(Pose2::new(3.3, 2.05, 0.46 + 0.15 * k as f64));
+        }
+        for k in 0..9 {
+            let th: f64 = 0.46 + 1.5;
+            out.push(Pose2::new(
+                3.3 + 0.1 * k as f64 * th.cos(),
+                2.05 + 0.1 * k as f64 * th.sin(),
+                th,
+            ));
+        }
+        out
+    }
+
+    fn run(init: InitialBelief, inject: f64) -> (Vec<f64>, Vec<f64>, OmniMcl) {
+        let truth = drive();
+        let mut f = OmniMcl::new(
+            "omni",
+            OmniMclParams {
+                particles: 1500,
+                inject,
+                ..Default::default()
+            },
+            map(),
+            &init,
+            3,
+        )
+        .unwrap();
+        let mut odo = Pose2::new(10.0, -3.0, 1.0);
+        let (mut errs, mut headings) = (Vec::new(), Vec::new());
+        for k in 1..truth.len() {
+            let d = truth[k - 1].between(&truth[k]);
+            let next = odo.compose(&Pose2::new(1.03 * d.x, d.y, d.theta));
+            f.predict(&OdometryDelta {
+                stamp: k as f64,
+                from: odo,
+                to: next,
+            });
+            odo = next;
+            let t = truth[k];
+            f.update(&reading(panorama(t.x, t.y, t.theta, 64, 4), k as f64));
+            let e = f.estimate().pose;
+            errs.push(e.distance(&t));
+            headings.push(e.heading_error(&t).to_degrees());
+        }
+        (errs, headings, f)
+    }
+
+    #[test]
+    fn tracks_a_drive_between_grid_nodes() {
+        let (errs, headings, f) = run(
+            InitialBelief::Tracking {
+                pose: drive()[0],
+                sigma: [0.2, 0.2, 0.1],
+            },
+            0.0,
+        );
+        assert_eq!(f.rejected(), 0);
+        assert_eq!(f.updates(), errs.len());
+        let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+        let max = errs.iter().cloned().fold(0.0, f64::max);
+        let hmax = headings.iter().cloned().fold(0.0, f64::max);
+        assert!(
+            mean < 0.15 && max < 0.35 && hmax < 12.0,
+            "{mean} {max} {hmax}"
+        );
+    }
+
+    #[test]
+    fn converges_from_a_global_start_with_injection() {
+        let (errs, _, _) = run(InitialBelief::Global { regions: vec![] }, 0.05);
+        assert!(errs[0] > 0.5, "starts spread: {}", errs[0]);
+        let tail = &errs[errs.len() - 20..];
+        let worst = tail.iter().cloned().fold(0.0, f64::max);
+        assert!(worst < 0.35, "{errs:?}");
+    }
+
+    #[test]
+    fn bad_readings_and_parameters_are_refused() {
+        let mut f = OmniMcl::new(
+            "omni",
+            OmniMclParams::default(),
+            map(),
+            &InitialBelief::Global { regions: vec![] },
+            1,
+        )
+        .unwrap();
+        let Reading::Intensity(mut img) = reading(vec![0.5; 64 * 4], 1.0) else {
+            unreachable!()
+        };
+        img.width = 32;
+        img.pixels.truncate(32 * 4);
+        f.update(&Reading::Intensity(img.clone()));
+        assert_eq!(f.rejected(), 1);
+        assert!(f.last_error().unwrap().to_string().contains("32 × 4"));
+        img.width = 64;
+        img.pixels = vec![f32::NAN; 64 * 4];
+        f.update(&Reading::Intensity(img.clone()));
+        assert_eq!(f.rejected(), 2);
+        // Another camera's images are not for this filter.
+        img.sensor = "front".into();
+        f.update(&Reading::Intensity(img));
+        assert_eq!((f.rejected(), f.updates()), (2, 0));
+        for bad in [
+            OmniMclParams {
+                sigma: Some(0.0),
+                ..Default::default()
+            },
+            OmniMclParams {
+                inject: 1.0,
+                ..Default::default()
+            },
+            OmniMclParams {
+                particles: 0,
+                ..Default::default()
+            },
+        ] {
+            assert!(OmniMcl::new(
+                "omni",
+                bad,
+                map(),
+                &InitialBelief::Global { regions: vec![] },
+                1
+            )
+            .is_err());
+        }
+        // A rotation of the robot is a column shift of the same panorama.
+        let a = panorama(1.0, 1.0, 0.0, 64, 4);
+        let mut s = vec![0.0; a.len()];
+        shift_columns(&a, 64, 8, &mut s);
+        let b = panorama(1.0, 1.0, std::f64::consts::FRAC_PI_4, 64, 4);
+        assert!(s.iter().zip(&b).all(|(p, q)| (p - q).abs() < 1e-5));
+    }
+}
