@@ -216,7 +216,7 @@ impl ErrorMap {
         let head = head
             .strip_prefix("# atrium error map:")
             .ok_or_else(|| err(1, "missing '# atrium error map:' header".into()))?;
-        let mut field = |key: &str| -> Result<f64, ErrorMapParseError> {
+        let field = |key: &str| -> Result<f64, ErrorMapParseError> {
             head.split_whitespace()
                 .find_map(|kv| kv.strip_prefix(key).and_then(|v| v.strip_prefix('=')))
                 .ok_or_else(|| err(1, format!("header lacks {key}")))?

@@ -17,6 +17,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Above this many particles a parameter file is more likely wrong than ambitious, and the
 /// buffers (seven f64/usize arrays) would take gigabytes.
@@ -195,7 +196,9 @@ pub enum InitialBelief {
 pub struct Mcl {
     name: String,
     params: MclParams,
-    field: LikelihoodField,
+    /// Shared with every filter built from the same [`MclMap`]; copied on write only if a
+    /// scan's range_max differs from the one the table was built for.
+    field: Arc<LikelihoodField>,
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
     /// z_{1−δ} of the KLD bound, computed once.
@@ -218,7 +221,7 @@ pub struct Mcl {
     beam_y: Vec<f64>,
     bins: BinSet,
     /// Free cells of the field grid, for random injection.
-    free_cells: Vec<u32>,
+    free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
     grid_resolution: f64,
     grid_width: usize,
@@ -231,16 +234,47 @@ pub struct Mcl {
     /// Weighted mean and covariance at the last sensor update (before resampling).
     mean: Pose2,
     covariance: Matrix3<f64>,
+    /// Sensing mismatch (004 §4.2) per beam, on its own time-based averages (w_slow and
+    /// w_fast above exist only with recovery enabled and run per update).
+    fit: crate::observation_fit::FitTracker,
 }
 
-impl Mcl {
+/// What an MCL filter derives from its map: the likelihood field (a distance transform and a
+/// log-likelihood table) and the free cells for random particles. It is a pure function of
+/// the occupancy grid and the field parameters, and costs far more than running a short
+/// trial, so a sweep builds it once and shares it between filters ([`Mcl::with_map`]).
+#[derive(Debug, Clone)]
+pub struct MclMap {
+    field: Arc<LikelihoodField>,
+    free_cells: Arc<Vec<u32>>,
+    origin: [f64; 2],
+    resolution: f64,
+    width: usize,
+    height: usize,
+    /// The MclParams fields the map depends on: z_hit, z_rand, sigma_hit, max_dist,
+    /// grid_resolution.
+    built_for: [f64; 5],
+}
+
+fn field_key(p: &MclParams) -> [f64; 5] {
+    [
+        p.z_hit,
+        p.z_rand,
+        p.sigma_hit,
+        p.max_dist,
+        p.grid_resolution,
+    ]
+}
+
+impl MclMap {
+    /// Builds the field of `grid` (resampled to `params.grid_resolution` if it differs) for
+    /// scans of `range_max` metres (a filter seeing another range_max rebuilds its own copy
+    /// of the table at the first such scan).
     pub fn new(
-        name: &str,
-        params: MclParams,
         grid: &OccupancyGrid,
-        init: InitialBelief,
-        seed: u64,
-    ) -> Result<Mcl, LocalizationError> {
+        params: &MclParams,
+        range_max: f64,
+    ) -> Result<MclMap, LocalizationError> {
         params
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
@@ -260,7 +294,7 @@ impl Mcl {
                 z_rand: params.z_rand,
                 sigma_hit: params.sigma_hit,
                 max_dist: params.max_dist,
-                range_max: NOMINAL_RANGE_MAX,
+                range_max,
             },
         )?;
         let free_cells: Vec<u32> = grid
@@ -270,6 +304,47 @@ impl Mcl {
             .filter(|(_, c)| **c == Cell::Free)
             .map(|(k, _)| k as u32)
             .collect();
+        Ok(MclMap {
+            field: Arc::new(field),
+            free_cells: Arc::new(free_cells),
+            origin: grid.origin,
+            resolution: grid.resolution,
+            width: grid.width,
+            height: grid.height,
+            built_for: field_key(params),
+        })
+    }
+}
+
+impl Mcl {
+    pub fn new(
+        name: &str,
+        params: MclParams,
+        grid: &OccupancyGrid,
+        init: InitialBelief,
+        seed: u64,
+    ) -> Result<Mcl, LocalizationError> {
+        let map = MclMap::new(grid, &params, NOMINAL_RANGE_MAX)?;
+        Self::with_map(name, params, &map, init, seed)
+    }
+
+    /// A filter on a prepared (possibly shared) map; `map` must have been built for the same
+    /// field parameters (z_hit, z_rand, sigma_hit, max_dist, grid_resolution) as `params`.
+    pub fn with_map(
+        name: &str,
+        params: MclParams,
+        map: &MclMap,
+        init: InitialBelief,
+        seed: u64,
+    ) -> Result<Mcl, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        if map.built_for != field_key(&params) {
+            return Err(LocalizationError::InvalidParameter(
+                "the MclMap was built for other likelihood-field parameters".to_owned(),
+            ));
+        }
         let m = params.max_particles;
         let mut mcl = Mcl {
             name: name.to_owned(),
@@ -289,10 +364,10 @@ impl Mcl {
             beam_x: Vec::with_capacity(params.max_beams),
             beam_y: Vec::with_capacity(params.max_beams),
             bins: BinSet::new(m, params.kld_bin),
-            free_cells,
-            grid_origin: grid.origin,
-            grid_resolution: grid.resolution,
-            grid_width: grid.width,
+            free_cells: map.free_cells.clone(),
+            grid_origin: map.origin,
+            grid_resolution: map.resolution,
+            grid_width: map.width,
             pending: Pose2::default(),
             updated_once: false,
             w_slow: 0.0,
@@ -300,10 +375,11 @@ impl Mcl {
             stamp: 0.0,
             mean: Pose2::default(),
             covariance: Matrix3::zeros(),
-            field,
+            fit: Default::default(),
+            field: map.field.clone(),
             params,
         };
-        mcl.initialise(grid, &init)?;
+        mcl.initialise((map.width, map.height), &init)?;
         Ok(mcl)
     }
 
@@ -311,7 +387,7 @@ impl Mcl {
     /// a time until their number reaches the bound for the bins they occupy.
     fn initialise(
         &mut self,
-        grid: &OccupancyGrid,
+        grid_size: (usize, usize),
         init: &InitialBelief,
     ) -> Result<(), LocalizationError> {
         let mut region_cells: Vec<u32> = Vec::new();
@@ -364,7 +440,7 @@ impl Mcl {
                         if regions.is_empty() {
                             format!(
                                 "the map ({} × {}) has no Free cell",
-                                grid.width, grid.height
+                                grid_size.0, grid_size.1
                             )
                         } else {
                             "no Free cell of the map lies inside the polygons".to_owned()
@@ -505,7 +581,12 @@ impl Mcl {
     }
 
     fn sensor_update(&mut self, scan: &LaserScan) {
-        self.field.set_range_max(scan.range_max);
+        // The same test as set_range_max's, so a shared table is copied only when it will
+        // really change.
+        let r = scan.range_max;
+        if r != self.field.params().range_max && r.is_finite() && r > 0.0 {
+            Arc::make_mut(&mut self.field).set_range_max(r);
+        }
         let nb = self.select_beams(scan);
         if nb == 0 {
             return;
@@ -541,6 +622,7 @@ impl Mcl {
         for w in &mut self.w[..n] {
             *w *= inv;
         }
+        self.fit.record(self.stamp, (per_beam / n as f64).ln());
         // Augmented MCL bookkeeping (Table 8.3) on the per-beam geometric mean likelihood:
         // the raw product swings by orders of magnitude with the number of valid beams in a
         // scan, which would read as a sudden loss of track.
@@ -652,6 +734,30 @@ impl Localizer for Mcl {
     /// with its covariance carried through the same composition (first order).
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+    }
+
+    fn observation_fit(&self) -> Option<f64> {
+        self.fit.fit()
+    }
+
+    /// Redraws the current number of particles (at least `min_particles`) around `pose`.
+    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        let n = self.n.max(self.params.min_particles);
+        let ok = crate::particles::redraw_gaussian(
+            &mut self.x[..n],
+            &mut self.y[..n],
+            &mut self.th[..n],
+            pose,
+            sigma,
+            &mut self.rng,
+        );
+        if ok {
+            self.n = n;
+            self.w[..n].fill(1.0 / n as f64);
+            self.pending = Pose2::default();
+            self.compute_estimate();
+        }
+        ok
     }
 }
 

@@ -127,13 +127,10 @@ pub fn svg(world: &World, run: &RunResult, loc: &LocalizerRun) -> String {
     s
 }
 
-/// PNG of one localizer's run (same picture as the SVG, without text).
-pub fn png(world: &World, run: &RunResult, loc: &LocalizerRun) -> Result<Vec<u8>, String> {
-    use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
-    let f = Frame::of(world);
-    let mut pm =
-        Pixmap::new(f.width.ceil() as u32, f.height.ceil() as u32).ok_or("picture too large")?;
-    pm.fill(Color::WHITE);
+/// Fills `world`'s walls (glass translucent blue, others grey) and pillars into `pm`, `px`
+/// mapping a world point to pixels. Shared by the run pictures and the sweep's error maps.
+pub fn draw_world(pm: &mut tiny_skia::Pixmap, world: &World, px: &dyn Fn([f64; 2]) -> (f64, f64)) {
+    use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Transform};
     let mut paint = Paint {
         anti_alias: true,
         ..Paint::default()
@@ -141,7 +138,7 @@ pub fn png(world: &World, run: &RunResult, loc: &LocalizerRun) -> Result<Vec<u8>
     let mut fill_poly = |pm: &mut Pixmap, pts: &[[f64; 2]], rgba: [u8; 4]| {
         let mut pb = PathBuilder::new();
         for (i, p) in pts.iter().enumerate() {
-            let (x, y) = f.px(*p);
+            let (x, y) = px(*p);
             if i == 0 {
                 pb.move_to(x as f32, y as f32);
             } else {
@@ -166,7 +163,7 @@ pub fn png(world: &World, run: &RunResult, loc: &LocalizerRun) -> Result<Vec<u8>
         } else {
             [85, 85, 85, 255]
         };
-        fill_poly(&mut pm, &wall_corners(wall.a, wall.b, wall.thickness), rgba);
+        fill_poly(pm, &wall_corners(wall.a, wall.b, wall.thickness), rgba);
     }
     for p in &world.pillars {
         let pts: Vec<[f64; 2]> = (0..24)
@@ -178,8 +175,18 @@ pub fn png(world: &World, run: &RunResult, loc: &LocalizerRun) -> Result<Vec<u8>
                 ]
             })
             .collect();
-        fill_poly(&mut pm, &pts, [85, 85, 85, 255]);
+        fill_poly(pm, &pts, [85, 85, 85, 255]);
     }
+}
+
+/// PNG of one localizer's run (same picture as the SVG, without text).
+pub fn png(world: &World, run: &RunResult, loc: &LocalizerRun) -> Result<Vec<u8>, String> {
+    use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
+    let f = Frame::of(world);
+    let mut pm =
+        Pixmap::new(f.width.ceil() as u32, f.height.ceil() as u32).ok_or("picture too large")?;
+    pm.fill(Color::WHITE);
+    draw_world(&mut pm, world, &|p| f.px(p));
     let line = |pm: &mut Pixmap, a: [f64; 2], b: [f64; 2], rgb: [u8; 3], width: f32| {
         let mut pb = PathBuilder::new();
         let (x1, y1) = f.px(a);

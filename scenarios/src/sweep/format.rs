@@ -8,6 +8,8 @@
 //! "sensors.laser.range_max" = [4.0, 8.0, 30.0]
 //! "localizers.mcl.max_particles" = [500, 3000]   # a localizer addressed by name
 //! duration_s = [60.0]
+//! [error_map]                 # optional: per-location error maps (see `super::maps`)
+//! resolution = 1.0            # cell size, m
 //! ```
 //!
 //! An axis's path may also be written as nested tables (`[axes.odometry] radius_error = [..]`);
@@ -40,6 +42,41 @@ pub struct Sweep {
     /// Identifies the sweep: a hash of the sweep file's and base scenario's text. Results
     /// written under another hash belong to another sweep and are never mixed with these.
     pub hash: String,
+    /// `[error_map] resolution`, m: every trial records a per-location error map.
+    pub error_map: Option<f64>,
+    /// The maps (likelihood fields, grids) the validation built, per cell: kept alive so the
+    /// trials share them instead of rebuilding (see `crate::map_cache`). `run_sweep` takes
+    /// them and drops each cell's once its last trial is done.
+    pub(crate) warm: WarmMaps,
+}
+
+/// Per-cell [`SharedMaps`] kept alive between validation and the trials.
+#[derive(Clone, Default)]
+pub struct WarmMaps(
+    pub(crate) std::sync::Arc<std::sync::Mutex<std::collections::BTreeMap<usize, SharedMaps>>>,
+);
+
+impl std::fmt::Debug for WarmMaps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.lock().map(|m| m.len()).unwrap_or(0);
+        write!(f, "WarmMaps({n} cells)")
+    }
+}
+
+impl WarmMaps {
+    /// Takes the maps kept for `cell`, if any.
+    pub(crate) fn take(&self, cell: usize) -> Option<SharedMaps> {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .remove(&cell)
+    }
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ErrorMapFile {
+    resolution: f64,
 }
 
 #[derive(serde::Deserialize)]
@@ -50,6 +87,8 @@ struct SweepFile {
     trials: usize,
     #[serde(default)]
     axes: toml::Table,
+    #[serde(default)]
+    error_map: Option<ErrorMapFile>,
 }
 
 /// FNV-1a 64 over `parts` with a separator, printed as hex: stable across machines and
@@ -187,7 +226,24 @@ impl Sweep {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "sweep".into());
+        let error_map = match raw.error_map {
+            None => None,
+            Some(e)
+                if e.resolution.is_finite() && e.resolution >= 0.05 && e.resolution <= 100.0 =>
+            {
+                Some(e.resolution)
+            }
+            Some(e) => {
+                return Err(ScenarioError::field(
+                    file,
+                    "error_map.resolution",
+                    format!("must be between 0.05 and 100 m, got {}", e.resolution),
+                ))
+            }
+        };
         let sweep = Sweep {
+            error_map,
+            warm: WarmMaps::default(),
             file: file.to_path_buf(),
             name,
             hash: fnv_hex(&[text, &base_text]),
@@ -253,29 +309,72 @@ impl Sweep {
         self.scenario_with(&self.cell_params(cell))
     }
 
-    fn check(&self, params: &[(&str, &toml::Value)], what: String) -> Result<(), ScenarioError> {
+    /// Checks one combination of axis values; `cell` is the cell it is (if it is one), whose
+    /// maps are then kept for the trials.
+    fn check(
+        &self,
+        params: &[(&str, &toml::Value)],
+        what: String,
+        cell: Option<usize>,
+    ) -> Result<(), ScenarioError> {
         let wrap = |e: ScenarioError| ScenarioError::field(&self.file, &what, e.to_string());
         let scenario = self.scenario_with(params).map_err(wrap)?;
+        if let Some(res) = self.error_map {
+            crate::error_maps::empty_for(&scenario, res)
+                .map_err(|msg| ScenarioError::field(&self.file, "error_map.resolution", msg))
+                .map_err(wrap)?;
+        }
         // Localizer parameters are checked when a localizer is built, not when the scenario
         // is parsed; build them here so a misspelt parameter fails before any trial runs.
         let mut maps = SharedMaps::default();
         for spec in &scenario.localizers {
             build_localizer(spec, &scenario, &mut maps, 0).map_err(wrap)?;
         }
+        if let Some(c) = cell {
+            self.warm
+                .0
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .insert(c, maps);
+        }
         Ok(())
+    }
+
+    /// Builds (or finds kept) maps for `cell`'s localizers and returns them: holding them
+    /// keeps them shared by the cell's trials.
+    pub(crate) fn warm_cell(
+        &self,
+        cell: usize,
+        scenario: &Scenario,
+    ) -> Result<SharedMaps, ScenarioError> {
+        if let Some(m) = self.warm.take(cell) {
+            return Ok(m);
+        }
+        let mut maps = SharedMaps::default();
+        for spec in &scenario.localizers {
+            build_localizer(spec, scenario, &mut maps, 0)?;
+        }
+        Ok(maps)
     }
 
     fn validate(&self) -> Result<(), ScenarioError> {
         // Each axis alone first, so an error names the axis responsible.
+        let single = self.axes.len() == 1;
         for a in &self.axes {
-            for v in &a.values {
-                self.check(&[(a.path.as_str(), v)], format!("axes.{} = {v}", a.path))?;
+            for (i, v) in a.values.iter().enumerate() {
+                // With one axis, value i is cell i.
+                let cell = single.then_some(i);
+                self.check(
+                    &[(a.path.as_str(), v)],
+                    format!("axes.{} = {v}", a.path),
+                    cell,
+                )?;
             }
         }
         if self.axes.len() > 1 || self.axes.is_empty() {
             for cell in 0..self.cells() {
                 let params = self.cell_params(cell);
-                self.check(&params, format!("cell {cell}"))?;
+                self.check(&params, format!("cell {cell}"), Some(cell))?;
             }
         }
         Ok(())

@@ -4,11 +4,15 @@
 //! thread count or the sharding), appends one row batch per trial to `results.csv`, and
 //! writes `summary.md`. Source of the experiment design: 004_5bf198ec52fcbc0c.txt §3.
 
+pub mod bench;
 pub mod csv;
 pub mod format;
+pub mod heatmap;
+pub mod maps;
 pub mod merge;
 pub mod run;
 pub mod summary;
+pub mod text;
 
 pub use format::{Axis, Sweep};
 pub use merge::merge;

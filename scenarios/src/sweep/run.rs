@@ -3,14 +3,18 @@
 
 use super::csv::{self, Results, Row};
 use super::format::Sweep;
+use super::heatmap::{self, AxisLabels};
+use super::maps;
 use super::summary;
 use crate::error::ScenarioError;
+use crate::localizers::SharedMaps;
 use crate::runner::{run_scenario, RunOptions};
 use crate::seeds::derive_seed;
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -37,6 +41,8 @@ pub struct SweepOutcome {
     pub skipped: usize,
     pub results_csv: PathBuf,
     pub summary_md: PathBuf,
+    /// Heat maps and error-map files written.
+    pub pictures: Vec<PathBuf>,
     pub wall_s: f64,
 }
 
@@ -65,16 +71,64 @@ pub fn trial_seed(sweep_seed: u64, cell: usize, trial: usize) -> u64 {
     derive_seed(sweep_seed, &format!("trial/{cell}/{trial}"))
 }
 
+/// An axis value as results.csv and the pictures show it (strings without quotes).
+fn label(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// The sweep's axes with their value labels, for the heat maps.
+pub fn axis_labels(sweep: &Sweep) -> Vec<AxisLabels> {
+    sweep
+        .axes
+        .iter()
+        .map(|a| AxisLabels {
+            path: a.path.clone(),
+            values: a.values.iter().map(label).collect(),
+        })
+        .collect()
+}
+
+/// Writes the heat maps of `results` and, when `error_maps` gives the trials to sum (and
+/// whether the sweep has a single cell), the error-map CSV and pictures. Returns the files.
+pub fn write_pictures(
+    out: &Path,
+    results: &Results,
+    axes: &[AxisLabels],
+    error_maps: Option<(&[(usize, usize)], bool)>,
+) -> Result<Vec<PathBuf>, ScenarioError> {
+    let mut written = Vec::new();
+    let pics = heatmap::heatmaps(results, axes)
+        .map_err(|msg| ScenarioError::field(out, "heatmap", msg))?;
+    for (name, png) in pics {
+        let p = out.join(name);
+        crate::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Io {
+            file: p.clone(),
+            err,
+        })?;
+        written.push(p);
+    }
+    if let Some((trials, single)) = error_maps {
+        let combined = maps::combine(out, trials)?;
+        written.extend(maps::write_outputs(out, &combined, single)?);
+    }
+    Ok(written)
+}
+
 fn fmt_opt(v: Option<f64>) -> String {
     v.map(|x| x.to_string()).unwrap_or_default()
 }
 
-/// Runs one trial and returns its rows (one per localizer, in scenario order).
+/// Runs one trial and returns its rows (one per localizer, in scenario order). With
+/// `[error_map]`, the trial's map is written to `out/maps/` before the rows are returned.
 fn run_trial(
     sweep: &Sweep,
     scenario: &crate::scenario::Scenario,
     cell: usize,
     trial: usize,
+    out: &Path,
 ) -> Result<Vec<Row>, ScenarioError> {
     let seed = trial_seed(sweep.seed, cell, trial);
     let started = Instant::now();
@@ -86,13 +140,16 @@ fn run_trial(
         },
     )?;
     let wall = started.elapsed().as_secs_f64();
+    if let Some(res) = sweep.error_map {
+        let mut map = crate::error_maps::empty_for(scenario, res)
+            .map_err(|msg| ScenarioError::field(&sweep.file, "error_map.resolution", msg))?;
+        crate::error_maps::accumulate(&mut map, &result);
+        maps::write_trial_map(out, cell, trial, &map)?;
+    }
     let params: Vec<String> = sweep
         .cell_params(cell)
         .iter()
-        .map(|(_, v)| match v {
-            toml::Value::String(s) => s.clone(),
-            other => other.to_string(),
-        })
+        .map(|(_, v)| label(v))
         .collect();
     Ok(result
         .localizers
@@ -172,10 +229,15 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         for r in &existing.rows {
             *count.entry((r.cell, r.trial)).or_default() += 1;
         }
+        // With error maps a trial also needs its map file (written before its rows, so only
+        // a deleted file can be missing).
         done = count
             .into_iter()
             .filter(|&(_, n)| n >= per_trial)
             .map(|(k, _)| k)
+            .filter(|&(c, t)| {
+                sweep.error_map.is_none() || maps::trial_map_path(out, c, t).is_file()
+            })
             .collect();
         let kept = Results {
             rows: existing
@@ -218,11 +280,21 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     let todo: Vec<(usize, usize)> = mine.iter().copied().filter(|k| !done.contains(k)).collect();
     let skipped = mine.len() - todo.len();
 
-    // Scenarios are parsed once per cell, not per trial.
+    // Scenarios are parsed once per cell, not per trial, and each cell's maps (likelihood
+    // field, grids) are held while it has trials left, so its trials share one copy.
     let cells: BTreeSet<usize> = todo.iter().map(|&(c, _)| c).collect();
     let mut scenarios = std::collections::BTreeMap::new();
+    let mut held: std::collections::BTreeMap<usize, (Mutex<Option<SharedMaps>>, AtomicUsize)> =
+        Default::default();
     for c in cells {
-        scenarios.insert(c, sweep.cell_scenario(c)?);
+        let scenario = sweep.cell_scenario(c)?;
+        if sweep.error_map.is_some() {
+            maps::write_world(out, c, &scenario.world)?;
+        }
+        let left = todo.iter().filter(|k| k.0 == c).count();
+        let warm = sweep.warm_cell(c, &scenario)?;
+        held.insert(c, (Mutex::new(Some(warm)), AtomicUsize::new(left)));
+        scenarios.insert(c, scenario);
     }
 
     let file = std::fs::OpenOptions::new()
@@ -243,7 +315,7 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     });
     let work = || {
         todo.par_iter().try_for_each(|&(cell, trial)| {
-            let rows = run_trial(sweep, &scenarios[&cell], cell, trial)?;
+            let rows = run_trial(sweep, &scenarios[&cell], cell, trial, out)?;
             let batch: String = rows.iter().map(Row::to_line).collect();
             // One write of whole lines, then fsync, under the lock: rows of concurrent
             // trials never interleave and a kill leaves at most a partial last line.
@@ -252,6 +324,11 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
                 .and_then(|_| f.sync_data())
                 .map_err(io(&csv_path))?;
             drop(f);
+            let (maps, left) = &held[&cell];
+            if left.fetch_sub(1, Ordering::AcqRel) == 1 {
+                // The cell's last trial: free its maps.
+                maps.lock().unwrap_or_else(|p| p.into_inner()).take();
+            }
             if let Some(b) = &bar {
                 b.inc(1);
             }
@@ -281,11 +358,20 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     csv::write_atomic(&csv_path, &results.to_text())?;
     let summary_md = out.join("summary.md");
     csv::write_atomic(&summary_md, &summary::to_markdown(&results))?;
+    let pictures = write_pictures(
+        out,
+        &results,
+        &axis_labels(sweep),
+        sweep
+            .error_map
+            .map(|_| (mine.as_slice(), sweep.cells() == 1)),
+    )?;
     Ok(SweepOutcome {
         ran: todo.len(),
         skipped,
         results_csv: csv_path,
         summary_md,
+        pictures,
         wall_s: started.elapsed().as_secs_f64(),
     })
 }

@@ -61,5 +61,6 @@ pub fn to_markdown(results: &Results) -> String {
             ));
         }
     }
+    s.push_str(&crate::end_error::to_markdown(results));
     s
 }
