@@ -39,4 +39,19 @@ pub trait Localizer: Send {
     fn take_node_verification(&mut self) -> Option<usize> {
         None
     }
+    /// How well recent observations agree with the belief (the sensing mismatch of
+    /// 004_5bf198ec52fcbc0c.txt §4.2): the mean unnormalised observation likelihood over the
+    /// belief, short-term average over long-term average (w_fast / w_slow of Augmented MCL,
+    /// see `observation_fit::FitTracker`). About 1 as usual, below 1 when the belief fits the
+    /// observations worse than it used to. `None` for localizers that do not measure it.
+    fn observation_fit(&self) -> Option<f64> {
+        None
+    }
+    /// Re-seeds the belief around `pose` with standard deviations `sigma` (x, y, θ), dropping
+    /// odometry not yet applied (`pose` is a current estimate). Used by the sensor choosers
+    /// (`chooser.rs`) to bring a member that has lost track back to the chosen estimate.
+    /// Returns false, doing nothing, for localizers that cannot be re-seeded.
+    fn reset_to(&mut self, _pose: Pose2, _sigma: [f64; 3]) -> bool {
+        false
+    }
 }

@@ -72,6 +72,30 @@ pub fn carried_by_odometry(
     }
 }
 
+/// Redraws a particle set from a Gaussian around `pose` with standard deviations `sigma`
+/// (x, y, θ): the re-seeding of a lost filter by a sensor chooser (`chooser.rs`). Returns
+/// false, leaving the set alone, when `pose` or `sigma` is not finite (or sigma < 0).
+pub fn redraw_gaussian(
+    x: &mut [f64],
+    y: &mut [f64],
+    th: &mut [f64],
+    pose: Pose2,
+    sigma: [f64; 3],
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> bool {
+    use rand_distr::{Distribution, StandardNormal};
+    if !pose.is_finite() || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+        return false;
+    }
+    for i in 0..x.len() {
+        let mut g = || -> f64 { StandardNormal.sample(rng) };
+        x[i] = pose.x + sigma[0] * g();
+        y[i] = pose.y + sigma[1] * g();
+        th[i] = normalize_angle(pose.theta + sigma[2] * g());
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -133,8 +133,9 @@ pub trait ReadingStream {
     /// Totals of the run, valid once `next` has returned `None`.
     fn summary(&self) -> StreamSummary;
     /// A localizer verified node `node` of a node route (002 Algorithm 1): a live robot stops
-    /// and resets its node controller's pose; a recording already holds what happened.
-    fn verify_node(&mut self, _node: usize) {}
+    /// and its node controller takes the localizer's `pose` after the reset; a recording
+    /// already holds what happened.
+    fn verify_node(&mut self, _node: usize, _pose: Pose2) {}
 }
 
 /// Watches a run as it is consumed (the MCAP recorder is one). Called once per instant after
@@ -175,7 +176,13 @@ impl<'a> SimStream<'a> {
             Some(route) => sim
                 .set_node_route(&route.nodes, route.params)
                 .map_err(|e| ScenarioError::field(&scenario.file, "route", e.to_string()))?,
-            None => sim.set_route(&scenario.waypoints),
+            None => sim.set_route(&crate::route_jitter::jittered_waypoints(
+                &scenario.world,
+                [scenario.start.x, scenario.start.y],
+                &scenario.waypoints,
+                scenario.route_jitter,
+                seed,
+            )),
         }
         let eval_every = scenario.physics_hz / scenario.eval_hz;
         Ok(SimStream {
@@ -253,8 +260,8 @@ impl ReadingStream for SimStream<'_> {
         }))
     }
 
-    fn verify_node(&mut self, node: usize) {
-        self.sim.verify_node(node);
+    fn verify_node(&mut self, node: usize, pose: Pose2) {
+        self.sim.verify_node(node, Some(pose));
     }
 
     fn summary(&self) -> StreamSummary {
@@ -290,8 +297,7 @@ pub fn run_stream(
     let mut maps = SharedMaps::default();
     let mut localizers = Vec::with_capacity(scenario.localizers.len());
     for spec in &scenario.localizers {
-        let loc_seed = derive_seed(seed, &format!("localizer/{}", spec.name));
-        localizers.push(build_localizer(spec, scenario, &mut maps, loc_seed)?);
+        localizers.push(build_localizer(spec, scenario, &mut maps, seed)?);
     }
     let n = localizers.len();
     let mut trajectories: Vec<Vec<(f64, Pose2)>> = vec![Vec::new(); n];
@@ -335,7 +341,9 @@ pub fn run_stream(
         // Closes the loop of a node route: the robot stops at a node the landmark verified.
         for l in localizers.iter_mut() {
             if let Some(node) = l.take_node_verification() {
-                stream.verify_node(node);
+                // The controller steers on the localizer's pose after its reset (002
+                // Algorithm 1 line 14), not on a separate copy that kept the old offsets.
+                stream.verify_node(node, l.estimate().pose);
             }
         }
 
