@@ -32,7 +32,10 @@ use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
+use crate::observation_fit::{per_unit_log_mean, FitTracker};
+use crate::particles::{
+    accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
+};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
@@ -64,6 +67,14 @@ pub struct CgrParams {
     pub max_correspondence: f64,
     /// Points used per observation, evenly spread over the available ones. Default 60.
     pub max_points: usize,
+    /// Fewest points an observation must have to be used; with fewer, the particles only
+    /// move (as when nothing is seen). Default 10. The point-to-line likelihood has no term
+    /// for beams that return nothing, so a handful of stray returns in an open area (the
+    /// SICK preset's short and random readings: 1.5 per scan on average, up to 8, in the
+    /// atrium's interior) would otherwise decide the weights by chance alignments with walls
+    /// for particles at the fringe of a wide cloud, and pull the cloud toward walls the
+    /// laser does not see. Must be within [3, max_points].
+    pub min_points: usize,
     /// Floor of the motion model's position standard deviation in the acceptance test, m.
     /// Default 0.02.
     pub accept_sigma_xy: f64,
@@ -94,6 +105,7 @@ impl Default for CgrParams {
             outlier_sigmas: 3.0,
             max_correspondence: 0.5,
             max_points: 60,
+            min_points: 10,
             accept_sigma_xy: 0.02,
             accept_sigma_theta: 0.02,
             map_resolution: 0.1,
@@ -139,6 +151,12 @@ impl CgrParams {
         positive("max_correspondence", self.max_correspondence)?;
         if self.max_points < 3 {
             return Err(format!("max_points must be >= 3, got {}", self.max_points));
+        }
+        if !(3..=self.max_points).contains(&self.min_points) {
+            return Err(format!(
+                "min_points must be within [3, max_points = {}], got {}",
+                self.max_points, self.min_points
+            ));
         }
         positive("accept_sigma_xy", self.accept_sigma_xy)?;
         positive("accept_sigma_theta", self.accept_sigma_theta)?;
@@ -210,6 +228,8 @@ pub struct Cgr {
     /// Refined samples accepted / offered, over the whole run.
     accepted: u64,
     offered: u64,
+    /// Sensing mismatch (004 §4.2) of the updates, per observed point.
+    fit: FitTracker,
 }
 
 impl Cgr {
@@ -307,6 +327,7 @@ impl Cgr {
             covariance: Matrix3::zeros(),
             accepted: 0,
             offered: 0,
+            fit: FitTracker::default(),
             params,
         };
         cgr.compute_estimate();
@@ -509,7 +530,7 @@ impl Cgr {
                 + (rel.y / sd_lateral).powi(2)
                 + (rel.theta / sd_theta).powi(2))
         };
-        let have_obs = self.obs.len() >= 3;
+        let have_obs = self.obs.len() >= self.params.min_points;
         let r = self.params.refinements;
         for i in 0..self.n {
             let prev = Pose2::new(self.x[i], self.y[i], self.th[i]);
@@ -554,10 +575,23 @@ impl Cgr {
             self.logw[i] = ll;
         }
         if !have_obs {
+            // Nothing (or too little) to match: for the mismatch measure, as if every point
+            // were an outlier, so a sensor that sees nothing does not look well matched.
+            let k = self.params.outlier_sigmas;
+            let eps_out = (-0.5 * k * k).exp();
+            self.fit
+                .record_blind(self.stamp, eps_out.ln() - (1.0 + eps_out).ln());
+            // The particles moved and `pending` was consumed: the estimate must follow them,
+            // or it freezes wherever the sensor last saw something (open areas, 004 §3).
+            self.compute_estimate();
             return;
         }
         // Step 4: importance weights (normalised in log space) and resampling.
         let n = self.n;
+        self.fit.record(
+            self.stamp,
+            per_unit_log_mean(&self.logw[..n], self.obs.len()),
+        );
         let max = self.logw[..n]
             .iter()
             .copied()
@@ -630,6 +664,28 @@ impl Localizer for Cgr {
 
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+    }
+
+    fn observation_fit(&self) -> Option<f64> {
+        self.fit.fit()
+    }
+
+    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        let n = self.n;
+        let ok = redraw_gaussian(
+            &mut self.x[..n],
+            &mut self.y[..n],
+            &mut self.th[..n],
+            pose,
+            sigma,
+            &mut self.rng,
+        );
+        if ok {
+            self.w[..n].fill(1.0 / n as f64);
+            self.pending = Pose2::default();
+            self.compute_estimate();
+        }
+        ok
     }
 }
 
@@ -782,6 +838,13 @@ mod tests {
             ..Default::default()
         })
         .contains("fspf.l"));
+        for min_points in [2, 61] {
+            assert!(bad(CgrParams {
+                min_points,
+                ..Default::default()
+            })
+            .contains("min_points"));
+        }
         let e = Cgr::laser(
             "c",
             CgrParams::default(),

@@ -1,13 +1,17 @@
 //! Estimators. They see readings and maps exported from `worlds`, never the simulator.
 
 pub mod appearance;
+pub mod appearance_apf;
+pub mod ceiling_mcl;
 pub mod cgr;
+pub mod chooser;
 pub mod covariance_monitor;
 pub mod dead_reckoning;
 pub mod ekf_slam;
 pub mod em_pca;
 pub mod error;
 pub mod error_map;
+pub mod free_space;
 pub mod fspf;
 pub mod gp;
 pub mod kld;
@@ -16,7 +20,11 @@ pub mod likelihood_field;
 pub mod line_map;
 pub mod localizer;
 pub mod mcl;
+pub mod mixture;
 pub mod motion;
+pub mod observation_fit;
+pub mod omni_map;
+pub mod omni_mcl;
 pub mod particles;
 pub mod pca;
 pub mod resampling;
@@ -24,6 +32,7 @@ pub mod wifi_graph;
 pub mod wifi_mcl;
 
 pub use cgr::{Cgr, CgrParams};
+pub use chooser::{Chooser, ReseedParams, Strategy};
 pub use dead_reckoning::{DeadReckoning, DriftModel};
 pub use error::LocalizationError;
 pub use fspf::{FspfParams, PlaneFilter, PlaneFiltered};
@@ -35,6 +44,6 @@ pub use landmark_filter::{
 pub use likelihood_field::{LikelihoodField, LikelihoodFieldParams};
 pub use line_map::LineMap;
 pub use localizer::{Estimate, Localizer, OdometryDelta};
-pub use mcl::{InitialBelief, Mcl, MclParams};
+pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
 pub use resampling::{low_variance_indices, low_variance_indices_with_offset};

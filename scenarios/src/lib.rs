@@ -2,21 +2,29 @@
 //! reports (tables, JSON, SVG/PNG pictures, TUM trajectories) and benchmarks. The `atrium`
 //! binary in `main.rs` is a thin shell over this library.
 
+pub mod appearance_filters;
 pub mod appearance_lab;
+pub mod appearance_localizers;
 pub mod bench;
 pub mod bench_appearance;
+pub mod camera_localizers;
+pub mod camera_sensors;
 pub mod cgr_localizers;
+pub mod chooser_localizers;
 pub mod dataset;
+pub mod end_error;
 pub mod error;
 pub mod error_maps;
 pub mod expect;
 pub mod inspect;
 pub mod localizers;
+pub mod map_cache;
 pub mod metrics;
 pub mod node_experiment;
 pub mod output;
 pub mod plot;
 pub mod report;
+pub mod route_jitter;
 pub mod runner;
 pub mod scenario;
 pub mod seeds;

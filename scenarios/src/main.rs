@@ -20,6 +20,13 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a scenario's illumination experiment (000 §VII, `[appearance_experiment]`) and
+    /// print the sensor-model errors per lighting and feature set; exit 1 if a claim fails.
+    Appearance {
+        scenario: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a node-route scenario several times and print its node-error table (Table II of
     /// 002): per node and run, mm, for the landmark filter and every other localizer.
     Nodes {
@@ -87,9 +94,14 @@ enum Command {
     Sweep(SweepArgs),
     /// Measure whole-run throughput on this machine.
     Bench {
-        /// all, corridor_tracking, laser or empca.
+        /// all, corridor_tracking, laser, empca or sweep (`atrium bench sweep SWEEP`).
         #[arg(default_value = "all")]
         what: String,
+        /// sweep: the sweep file to measure.
+        sweep_file: Option<PathBuf>,
+        /// sweep: trials per cell (default: the sweep file's).
+        #[arg(long)]
+        trials: Option<usize>,
         #[arg(long)]
         json: bool,
         /// empca: number of principal components d (default 20).
@@ -298,6 +310,16 @@ fn main_inner(cli: Cli) -> Result<bool, BadInput> {
             }
             Ok(exp.passed())
         }
+        Some(Command::Appearance { scenario, json }) => {
+            let scenario = Scenario::load(&scenario)?;
+            let exp = atrium_scenarios::appearance_lab::run_experiment(&scenario)?;
+            if json {
+                print_json(&serde_json::to_value(&exp)?)?;
+            } else {
+                print!("{}", exp.to_text());
+            }
+            Ok(exp.passed())
+        }
         None => run(atrium_scenarios::default_scenario(), None, false, None),
         Some(Command::Run {
             scenario,
@@ -365,13 +387,22 @@ fn main_inner(cli: Cli) -> Result<bool, BadInput> {
         Some(Command::Sweep(args)) => sweep_command(args),
         Some(Command::Bench {
             what,
+            sweep_file,
+            trials,
             json,
             empca_d,
             empca_n,
             empca_dim,
             empca_missing,
         }) => {
-            let doc = if what == "empca" {
+            let doc = if what == "sweep" {
+                let file = sweep_file.ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "atrium bench sweep: give a sweep file (atrium bench sweep SWEEP)"
+                    )
+                })?;
+                atrium_scenarios::sweep::bench::run(&file, trials).map_err(|e| e.to_string())
+            } else if what == "empca" {
                 let base = atrium_scenarios::bench_appearance::EmPcaBench::default();
                 let b = atrium_scenarios::bench_appearance::EmPcaBench {
                     d: empca_d.unwrap_or(base.d),

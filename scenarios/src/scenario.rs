@@ -55,6 +55,12 @@ struct ScenarioFile {
     expect: toml::Table,
     #[serde(default)]
     node_experiment: Option<toml::Table>,
+    /// The lighting condition cameras see: `tube` (default), `bulb` or `natural`.
+    #[serde(default)]
+    lighting: Option<String>,
+    /// `[appearance_experiment]`: the illumination experiment (`atrium appearance`).
+    #[serde(default)]
+    appearance_experiment: Option<toml::Table>,
 }
 
 fn default_physics_hz() -> f64 {
@@ -87,6 +93,10 @@ struct RouteFile {
     /// Keep simulating this long after the last waypoint (lets estimates settle).
     #[serde(default)]
     settle_s: f64,
+    /// Seeded waypoint jitter radius, m (see `crate::route_jitter`); 0 drives the route as
+    /// written.
+    #[serde(default)]
+    jitter: f64,
 }
 
 /// Which map the localizers are given.
@@ -207,12 +217,19 @@ pub struct Scenario {
     pub start: Pose2,
     pub waypoints: Vec<[f64; 2]>,
     pub settle_s: f64,
+    /// `[route] jitter`: each run moves every waypoint but the last within this radius, m,
+    /// drawn from the run's seed (`crate::route_jitter`). 0 by default.
+    pub route_jitter: f64,
     pub controller: atrium_sim::ControllerParams,
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,
     /// Depth cameras (from `[depth_cameras.<name>]`, e.g. `preset = "kinect"`,
     /// `mount = "camera"`, `decimation = 4`); none unless the scenario asks.
     pub depth_cameras: Vec<atrium_robots::DepthCameraSpec>,
+    /// Intensity cameras, stereo rigs, ceiling and omni cameras (`[sensors.<name>]` with
+    /// `kind = "camera"`, `"stereo"`, `"ceiling"` or `"omni"`) and the `lighting` they see;
+    /// none by default.
+    pub cameras: atrium_sim::camera_stream::CameraSensors,
     /// Pillar detectors (from `[landmark_detector]`), for EKF-SLAM.
     pub landmark_detectors: Vec<atrium_robots::LandmarkDetectorSpec>,
     /// The WiFi scanner: the robot sensor file's `[wifi]`, overridden by the scenario's.
@@ -229,6 +246,8 @@ pub struct Scenario {
     pub node_route: Option<crate::node_experiment::NodeRoute>,
     /// `[node_experiment]`: the multi-run node table (`atrium nodes`).
     pub node_experiment: Option<crate::node_experiment::NodeExperimentSettings>,
+    /// `[appearance_experiment]`: the illumination experiment (`atrium appearance`).
+    pub appearance_experiment: Option<crate::appearance_lab::AppearanceSettings>,
     /// The scenario file's text, kept for dataset metadata.
     pub text: String,
 }
@@ -337,6 +356,20 @@ impl Scenario {
         if !(raw.route.settle_s.is_finite() && raw.route.settle_s >= 0.0) {
             return Err(ScenarioError::field(file, "route.settle_s", "must be >= 0"));
         }
+        if !(raw.route.jitter.is_finite() && raw.route.jitter >= 0.0) {
+            return Err(ScenarioError::field(
+                file,
+                "route.jitter",
+                "must be >= 0 (metres)",
+            ));
+        }
+        if raw.route.jitter > 0.0 && node_route.is_some() {
+            return Err(ScenarioError::field(
+                file,
+                "route.jitter",
+                "applies to waypoint routes only, not to node routes",
+            ));
+        }
         for (i, w) in raw.route.waypoints.iter().enumerate() {
             let field = format!("route.waypoints[{i}]");
             check_finite(file, &field, w)?;
@@ -380,12 +413,19 @@ impl Scenario {
             .validate()
             .map_err(|msg| ScenarioError::field(file, "odometry", msg))?;
         let mut lasers = robot_sensors.lasers.clone();
+        let mut camera_tables = Vec::new();
         if let Some(sensors) = &raw.sensors {
             for (name, value) in sensors {
                 let field = format!("sensors.{name}");
                 let table = value
                     .as_table()
                     .ok_or_else(|| ScenarioError::field(file, &field, "must be a table"))?;
+                // Tables with a `kind` are cameras (`camera_sensors.rs`: camera, stereo,
+                // ceiling, omni; other kinds are refused there); lasers have none.
+                if crate::camera_sensors::is_camera(table) {
+                    camera_tables.push((name.clone(), table.clone()));
+                    continue;
+                }
                 let mut table = table.clone();
                 // A sensor named like one in the robot's file inherits that sensor's values.
                 let existing = lasers.iter().position(|l| &l.name == name);
@@ -424,6 +464,8 @@ impl Scenario {
                 ));
             }
         }
+
+        let cameras = crate::camera_sensors::parse(file, raw.lighting.as_deref(), &camera_tables)?;
 
         let mut landmark_detectors = Vec::new();
         if let Some(t) = &raw.landmark_detector {
@@ -648,6 +690,10 @@ impl Scenario {
             )?),
             None => None,
         };
+        let appearance_experiment = match &raw.appearance_experiment {
+            Some(t) => Some(crate::appearance_lab::parse_settings(file, t)?),
+            None => None,
+        };
         let scenario = Scenario {
             file: file.to_path_buf(),
             name: raw.name,
@@ -666,10 +712,12 @@ impl Scenario {
                 None => raw.route.waypoints,
             },
             settle_s: raw.route.settle_s,
+            route_jitter: raw.route.jitter,
             controller,
             odometry,
             lasers,
             depth_cameras,
+            cameras,
             landmark_detectors,
             wifi,
             map: raw.map,
@@ -680,6 +728,7 @@ impl Scenario {
             expect: raw.expect,
             node_route,
             node_experiment,
+            appearance_experiment,
             text: text.to_string(),
         };
         // Expectation keys are checked now, so a typo fails before a long run.
@@ -702,6 +751,7 @@ impl Scenario {
             seed,
             landmark_detectors: self.landmark_detectors.clone(),
             depth_cameras: self.depth_cameras.clone(),
+            cameras: self.cameras.clone(),
             ..atrium_sim::SimConfig::default()
         }
     }

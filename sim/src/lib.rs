@@ -3,6 +3,7 @@
 //! wheel encoders and laser rangefinders on a fixed-step schedule, with ground truth.
 
 pub mod camera;
+pub mod camera_stream;
 pub mod controller;
 pub mod depth;
 pub mod encoders;

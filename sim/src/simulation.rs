@@ -33,6 +33,9 @@ pub struct SimConfig {
     /// Depth cameras (opt-in per scenario: each costs one ray per pixel per frame); none by
     /// default.
     pub depth_cameras: Vec<atrium_robots::DepthCameraSpec>,
+    /// Intensity cameras and stereo rigs with the lighting they see (`camera_stream.rs`);
+    /// none by default, and then nothing is rendered.
+    pub cameras: crate::camera_stream::CameraSensors,
 }
 
 impl Default for SimConfig {
@@ -47,6 +50,7 @@ impl Default for SimConfig {
             wifi: None,
             landmark_detectors: Vec::new(),
             depth_cameras: Vec::new(),
+            cameras: Default::default(),
         }
     }
 }
@@ -69,14 +73,14 @@ fn stream(seed: u64, id: u64) -> ChaCha8Rng {
 /// A sensor schedule on the step counter: reading k (k = 1, 2, …) is due at step
 /// round(k · physics_hz / rate), so sensor times never drift with float accumulation.
 #[derive(Debug, Clone)]
-struct Schedule {
+pub(crate) struct Schedule {
     steps_per_reading: f64,
     count: u64,
     next_step: u64,
 }
 
 impl Schedule {
-    fn new(physics_hz: f64, rate_hz: f64, field: &str) -> Result<Self, SimError> {
+    pub(crate) fn new(physics_hz: f64, rate_hz: f64, field: &str) -> Result<Self, SimError> {
         crate::error::positive(field, rate_hz)?;
         if rate_hz > physics_hz {
             return Err(SimError::config(
@@ -92,7 +96,7 @@ impl Schedule {
         })
     }
 
-    fn due(&mut self, step: u64) -> bool {
+    pub(crate) fn due(&mut self, step: u64) -> bool {
         if step < self.next_step {
             return false;
         }
@@ -134,6 +138,8 @@ pub struct Simulation {
     /// Depth cameras, their schedules and probe streams (after the landmark detectors in each
     /// step's output).
     depth_cameras: Vec<(crate::depth::DepthCamera, Schedule, ChaCha8Rng)>,
+    /// Intensity cameras and stereo rigs (after the depth cameras in each step's output).
+    cameras: Option<crate::camera_stream::CameraStream>,
 }
 
 impl Simulation {
@@ -218,6 +224,13 @@ impl Simulation {
 
         let mut scene = Scene::new(world, hz)?;
         let robot_bodies = RobotBodies::spawn(&mut scene, robot, config.start)?;
+        let cameras = crate::camera_stream::CameraStream::new(
+            world,
+            &scene,
+            &config.cameras,
+            hz,
+            config.seed,
+        )?;
         let (l, r) = robot_bodies.wheel_angles(&scene.physics);
         let ticks = config.odometry.ticks_per_rev;
         Ok(Simulation {
@@ -242,6 +255,7 @@ impl Simulation {
             nodes_on_truth: false,
             landmark_detectors,
             depth_cameras,
+            cameras,
         })
     }
 
@@ -325,6 +339,9 @@ impl Simulation {
             if schedule.due(self.steps) {
                 out.push(Reading::Depth(camera.frame(&self.scene, &base, stamp)));
             }
+        }
+        if let Some(cameras) = &mut self.cameras {
+            cameras.step(&self.scene, &base, self.steps, stamp, out);
         }
         if let Some((sensor, schedule)) = &mut self.wifi {
             if schedule.due(self.steps) {
@@ -415,11 +432,13 @@ impl Simulation {
     /// A landmark filter verified node `node` (002 Algorithm 1 lines 12–15): the node
     /// controller stops, sets its pose to the node and heads for the next. Returns whether it
     /// applied (false without a node route, or when `node` is not the one being approached).
-    pub fn verify_node(&mut self, node: usize) -> bool {
+    /// `pose`, when given, is the filter's pose after the reset, which the controller then
+    /// steers on ([`crate::node_controller::NodeController::verify`]).
+    pub fn verify_node(&mut self, node: usize, pose: Option<Pose2>) -> bool {
         let stamp = self.time();
         self.node_controller
             .as_mut()
-            .is_some_and(|c| c.verify(node, stamp))
+            .is_some_and(|c| c.verify(node, stamp, pose))
     }
 
     /// The node controller, when the route is a node list.
