@@ -15,8 +15,10 @@ use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
-use crate::resampling::low_variance_indices;
+use crate::particles::{
+    accumulate_odometry, carried_by_odometry, effective_sample_size, normalize_weights,
+    resample_columns, weighted_mean_covariance,
+};
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use nalgebra::Matrix3;
@@ -452,43 +454,28 @@ impl CeilingMcl {
         }
         self.apply_motion();
         let m = self.x.len();
-        let mut sum = 0.0;
         for i in 0..m {
             let l = self.likelihood(z, self.x[i], self.y[i]);
             self.w[i] *= l;
-            sum += self.w[i];
         }
-        if !(sum.is_finite() && sum > 0.0) {
-            self.w.fill(1.0 / m as f64);
-        } else {
-            for w in &mut self.w {
-                *w /= sum;
-            }
-        }
+        normalize_weights(&mut self.w);
         self.updates += 1;
         self.compute_estimate();
-        let ess = 1.0 / self.w.iter().map(|w| w * w).sum::<f64>();
-        if ess < self.params.resample_ess * m as f64 {
+        if effective_sample_size(&self.w) < self.params.resample_ess * m as f64 {
             self.resample();
         }
         Ok(())
     }
 
+    /// Degenerate weights leave the particles as they are (see [`resample_columns`]).
     fn resample(&mut self) {
-        let m = self.x.len();
-        if !low_variance_indices(&self.w, &mut self.idx, &mut self.rng) {
-            return;
-        }
-        for k in 0..m {
-            let i = self.idx[k];
-            self.x2[k] = self.x[i];
-            self.y2[k] = self.y[i];
-            self.th2[k] = self.th[i];
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.w.fill(1.0 / m as f64);
+        resample_columns(
+            [&mut self.x, &mut self.y, &mut self.th],
+            [&mut self.x2, &mut self.y2, &mut self.th2],
+            &mut self.w,
+            &mut self.idx,
+            &mut self.rng,
+        );
     }
 
     fn apply_motion(&mut self) {

@@ -28,9 +28,9 @@ use crate::mcl::InitialBelief;
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::omni_map::OmniMap;
 use crate::particles::{
-    accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
+    accumulate_odometry, carried_by_odometry, effective_sample_size, normalize_weights,
+    redraw_gaussian, resample_columns, weighted_mean_covariance,
 };
-use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
@@ -236,7 +236,6 @@ impl OmniMcl {
             best = best.max(self.loglik[i]);
         }
         let eps = self.params.outlier;
-        let mut sum = 0.0;
         for i in 0..m {
             // Relative to the best particle: exp never underflows for all of them at once,
             // and the floor is a fraction of the best explanation.
@@ -246,19 +245,11 @@ impl OmniMcl {
                 1.0
             };
             self.w[i] *= l;
-            sum += self.w[i];
         }
-        if !(sum.is_finite() && sum > 0.0) {
-            self.w.fill(1.0 / m as f64);
-        } else {
-            for w in &mut self.w {
-                *w /= sum;
-            }
-        }
+        normalize_weights(&mut self.w);
         self.updates += 1;
         self.compute_estimate();
-        let ess = 1.0 / self.w.iter().map(|w| w * w).sum::<f64>();
-        if ess < self.params.resample_ess * m as f64 {
+        if effective_sample_size(&self.w) < self.params.resample_ess * m as f64 {
             self.resample();
             self.compute_estimate();
         }
@@ -267,19 +258,15 @@ impl OmniMcl {
 
     fn resample(&mut self) {
         let m = self.x.len();
-        if !low_variance_indices(&self.w, &mut self.idx, &mut self.rng) {
+        if !resample_columns(
+            [&mut self.x, &mut self.y, &mut self.th],
+            [&mut self.x2, &mut self.y2, &mut self.th2],
+            &mut self.w,
+            &mut self.idx,
+            &mut self.rng,
+        ) {
             return;
         }
-        for k in 0..m {
-            let i = self.idx[k];
-            self.x2[k] = self.x[i];
-            self.y2[k] = self.y[i];
-            self.th2[k] = self.th[i];
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.w.fill(1.0 / m as f64);
         let k = (self.params.inject * m as f64).round() as usize;
         if k > 0 {
             self.inject(k);

@@ -72,6 +72,47 @@ pub fn carried_by_odometry(
     }
 }
 
+/// Divides the weights by their sum; degenerate weights (sum zero, NaN or infinite) become
+/// uniform, so a filter whose observation explained nothing keeps its particles.
+pub fn normalize_weights(w: &mut [f64]) {
+    let sum: f64 = w.iter().sum();
+    if !(sum.is_finite() && sum > 0.0) {
+        w.fill(1.0 / w.len().max(1) as f64);
+    } else {
+        for v in w.iter_mut() {
+            *v /= sum;
+        }
+    }
+}
+
+/// Effective sample size 1 / Σ w² of normalised weights.
+pub fn effective_sample_size(w: &[f64]) -> f64 {
+    1.0 / w.iter().map(|v| v * v).sum::<f64>()
+}
+
+/// Low-variance resampling of struct-of-arrays pose columns `[x, y, θ]`: the chosen particles
+/// are copied into the scratch columns, which are then swapped in, and the weights become
+/// uniform. Allocation-free. Returns false, changing nothing, when the weights are degenerate.
+pub fn resample_columns<R: rand::Rng + ?Sized>(
+    cols: [&mut Vec<f64>; 3],
+    scratch: [&mut Vec<f64>; 3],
+    w: &mut [f64],
+    idx: &mut [usize],
+    rng: &mut R,
+) -> bool {
+    if !crate::resampling::low_variance_indices(w, idx, rng) {
+        return false;
+    }
+    for (col, tmp) in cols.into_iter().zip(scratch) {
+        for (slot, &i) in tmp.iter_mut().zip(idx.iter()) {
+            *slot = col[i];
+        }
+        std::mem::swap(col, tmp);
+    }
+    w.fill(1.0 / w.len().max(1) as f64);
+    true
+}
+
 /// Redraws a particle set from a Gaussian around `pose` with standard deviations `sigma`
 /// (x, y, θ): the re-seeding of a lost filter by a sensor chooser (`chooser.rs`). Returns
 /// false, leaving the set alone, when `pose` or `sigma` is not finite (or sigma < 0).
@@ -99,6 +140,53 @@ pub fn redraw_gaussian(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn weights_normalise_and_degenerate_ones_become_uniform() {
+        let mut w = [1.0, 3.0];
+        normalize_weights(&mut w);
+        assert_eq!(w, [0.25, 0.75]);
+        assert!((effective_sample_size(&w) - 1.6).abs() < 1e-12);
+        let mut w = [0.0, 0.0, 0.0, f64::NAN];
+        normalize_weights(&mut w);
+        assert_eq!(w, [0.25; 4]);
+    }
+
+    #[test]
+    fn resampling_columns_keeps_whole_particles_and_only_heavy_ones() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let (mut x, mut y, mut th) = (
+            vec![0.0, 1.0, 2.0],
+            vec![10.0, 11.0, 12.0],
+            vec![0.1, 0.2, 0.3],
+        );
+        let (mut x2, mut y2, mut th2) = (vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]);
+        let mut w = vec![0.0, 1.0, 0.0];
+        let mut idx = vec![0; 3];
+        let cols = [&mut x, &mut y, &mut th];
+        assert!(resample_columns(
+            cols,
+            [&mut x2, &mut y2, &mut th2],
+            &mut w,
+            &mut idx,
+            &mut rng
+        ));
+        assert_eq!(
+            (x.clone(), y.clone(), th.clone()),
+            (vec![1.0; 3], vec![11.0; 3], vec![0.2; 3])
+        );
+        assert_eq!(w, vec![1.0 / 3.0; 3]);
+        let mut dead = vec![0.0; 3];
+        let cols = [&mut x, &mut y, &mut th];
+        assert!(!resample_columns(
+            cols,
+            [&mut x2, &mut y2, &mut th2],
+            &mut dead,
+            &mut idx,
+            &mut rng
+        ));
+    }
 
     #[test]
     fn mean_is_circular_and_covariance_hand_computed() {
