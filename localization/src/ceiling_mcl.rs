@@ -14,10 +14,10 @@
 use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::mcl::InitialBelief;
-use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::motion::OdometryMotionModel;
 use crate::particles::{
-    accumulate_odometry, carried_by_odometry, effective_sample_size, normalize_weights,
-    resample_columns, weighted_mean_covariance,
+    accumulate_odometry, carried_by_odometry, effective_sample_size, move_by_pending_odometry,
+    normalize_weights, resample_columns, weighted_mean_covariance,
 };
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
@@ -479,18 +479,12 @@ impl CeilingMcl {
     }
 
     fn apply_motion(&mut self) {
-        let p = self.pending;
-        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
-            return;
-        }
-        let inc = self.motion.decompose(&Pose2::default(), &p);
-        for i in 0..self.x.len() {
-            let (x, y, th) = apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
-            self.x[i] = x;
-            self.y[i] = y;
-            self.th[i] = th;
-        }
-        self.pending = Pose2::default();
+        move_by_pending_odometry(
+            &self.motion,
+            &mut self.pending,
+            [&mut self.x, &mut self.y, &mut self.th],
+            &mut self.rng,
+        );
     }
 
     fn compute_estimate(&mut self) {

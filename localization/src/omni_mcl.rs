@@ -25,11 +25,11 @@ use crate::ceiling_mcl::sample_initial_belief;
 use crate::error::LocalizationError;
 use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::mcl::InitialBelief;
-use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::motion::OdometryMotionModel;
 use crate::omni_map::OmniMap;
 use crate::particles::{
-    accumulate_odometry, carried_by_odometry, effective_sample_size, normalize_weights,
-    redraw_gaussian, resample_columns, weighted_mean_covariance,
+    accumulate_odometry, carried_by_odometry, effective_sample_size, move_by_pending_odometry,
+    normalize_weights, redraw_gaussian, resample_columns, weighted_mean_covariance,
 };
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use nalgebra::Matrix3;
@@ -310,18 +310,12 @@ impl OmniMcl {
     }
 
     fn apply_motion(&mut self) {
-        let p = self.pending;
-        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
-            return;
-        }
-        let inc = self.motion.decompose(&Pose2::default(), &p);
-        for i in 0..self.x.len() {
-            let (x, y, th) = apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
-            self.x[i] = x;
-            self.y[i] = y;
-            self.th[i] = th;
-        }
-        self.pending = Pose2::default();
+        move_by_pending_odometry(
+            &self.motion,
+            &mut self.pending,
+            [&mut self.x, &mut self.y, &mut self.th],
+            &mut self.rng,
+        );
     }
 
     fn compute_estimate(&mut self) {

@@ -72,6 +72,26 @@ pub fn carried_by_odometry(
     }
 }
 
+/// Moves every particle by the odometry accumulated in `pending` (sampled from `model`, one
+/// draw per particle) and clears it; nothing happens while the robot has not moved.
+pub fn move_by_pending_odometry<R: rand::Rng + ?Sized>(
+    model: &crate::motion::OdometryMotionModel,
+    pending: &mut Pose2,
+    cols: [&mut [f64]; 3],
+    rng: &mut R,
+) {
+    let p = *pending;
+    if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
+        return;
+    }
+    let inc = model.decompose(&Pose2::default(), &p);
+    let [xs, ys, ths] = cols;
+    for ((x, y), th) in xs.iter_mut().zip(ys.iter_mut()).zip(ths.iter_mut()) {
+        (*x, *y, *th) = crate::motion::apply_increment(*x, *y, *th, &inc, rng);
+    }
+    *pending = Pose2::default();
+}
+
 /// Divides the weights by their sum; degenerate weights (sum zero, NaN or infinite) become
 /// uniform, so a filter whose observation explained nothing keeps its particles.
 pub fn normalize_weights(w: &mut [f64]) {
