@@ -21,6 +21,13 @@
 //! test is on both uncertainties, d > k·√(σ²_member + σ²_chosen) and d > `min_distance_m`:
 //! a gate on the member's own uncertainty alone would drag an accurate laser filter (σ of
 //! centimetres) to every WiFi estimate a metre off whenever WiFi is chosen.
+//!
+//! Also beyond the paper, the anchor gate ([`Chooser::set_anchor_gate`]): members re-seeding
+//! never moves (WiFi: an absolute sensor whose error is bounded) are anchors, and a member
+//! whose estimate fails the same consistency test against an anchor cannot be chosen. It
+//! answers §4.1's objection that uncertainties of different algorithms are not comparable: a
+//! laser filter converged on the wrong spot reports centimetres, but it cannot report them
+//! eight metres from where the WiFi filter, with its metre-wide spread, says the robot is.
 
 use crate::error::LocalizationError;
 use crate::error_map::ErrorMap;
@@ -43,8 +50,9 @@ pub enum Strategy {
         layers: Vec<usize>,
         radius_cells: usize,
     },
-    /// Mode of the per-region mixture of the members' Gaussians, each covariance floored at
-    /// the region's floor for that member (see [`log_density_xy`], [`RegionMixture`]).
+    /// Mode of the mixture of the members' Gaussians of the region at the current estimate,
+    /// each covariance floored at the region's floor for that member (see
+    /// [`log_density_xy`], [`RegionMixture`]).
     Fused { model: Arc<RegionMixture> },
 }
 
@@ -117,8 +125,19 @@ pub struct Chooser {
     /// Per member: sensor updates at which it was chosen, and times it was re-seeded.
     choices: Vec<u64>,
     reseeds: Vec<u64>,
+    /// Only members consistent with every anchor (a member not re-seedable) may be chosen.
+    anchor_gate: bool,
     /// Scratch for the members' estimates (no allocation per update).
     estimates: Vec<Estimate>,
+}
+
+/// The consistency test of re-seeding and of the anchor gate: `a` and `b` agree when they are
+/// within `min_distance_m`, or within `gate_sigmas` of their combined xy spread. A NaN
+/// distance (a broken member) disagrees.
+fn consistent(a: &Estimate, b: &Estimate, r: &ReseedParams) -> bool {
+    let d = a.pose.distance(&b.pose);
+    let var = xy_variance(a).max(0.0) + xy_variance(b).max(0.0);
+    d <= r.min_distance_m || d <= r.gate_sigmas * var.sqrt()
 }
 
 impl Chooser {
@@ -168,6 +187,7 @@ impl Chooser {
             chosen: 0,
             choices: vec![0; k],
             reseeds: vec![0; k],
+            anchor_gate: false,
             estimates,
         })
     }
@@ -185,6 +205,24 @@ impl Chooser {
         }
         self.reseedable = mask;
         Ok(())
+    }
+
+    /// Whether only members consistent with every anchor (see [`Chooser::set_reseedable`])
+    /// may be chosen; the test is re-seeding's (defaults when re-seeding is off).
+    pub fn set_anchor_gate(&mut self, on: bool) {
+        self.anchor_gate = on;
+    }
+
+    /// Whether member `k` may be chosen: always, unless the anchor gate is on and `k`
+    /// disagrees with an anchor.
+    fn eligible(&self, k: usize) -> bool {
+        if !self.anchor_gate || !self.reseedable[k] {
+            return true;
+        }
+        let r = self.reseed.unwrap_or_default();
+        (0..self.members.len())
+            .filter(|&a| !self.reseedable[a])
+            .all(|a| consistent(&self.estimates[k], &self.estimates[a], &r))
     }
 
     /// Index of the member whose estimate is the output now.
@@ -229,7 +267,13 @@ impl Chooser {
                 }
                 Strategy::Fused { model } => {
                     let p = [e.pose.x, e.pose.y];
-                    let g = model.group_at(p);
+                    // One mixture for every candidate: the region's at the current estimate,
+                    // as the data-driven chooser looks its map up. Looking it up at each
+                    // candidate's own estimate compared densities of different mixtures: a
+                    // lost laser filter whose estimate lay in a corridor was scored with the
+                    // corridor's weights and centimetre floors, and won in the atrium.
+                    let at = self.estimates[self.chosen].pose;
+                    let g = model.group_at([at.x, at.y]);
                     let w = &g.weights;
                     // log Σ_j w_j N(p; mean_j, Σ_j) by log-sum-exp, in two passes (the terms
                     // are recomputed rather than stored: no allocation per update).
@@ -257,7 +301,7 @@ impl Chooser {
             }
         };
         let mut best: Option<(usize, f64)> = None;
-        for k in 0..self.members.len() {
+        for k in (0..self.members.len()).filter(|&k| self.eligible(k)) {
             if let Some(s) = score(k).filter(|s| !s.is_nan()) {
                 if best.is_none_or(|(_, b)| s < b) {
                     best = Some((k, s));
@@ -271,7 +315,6 @@ impl Chooser {
     fn reseed_members(&mut self, r: ReseedParams) {
         let c = self.chosen;
         let ec = self.estimates[c];
-        let var_c = xy_variance(&ec).max(0.0);
         let sigma = [
             ec.covariance[(0, 0)].max(0.0).sqrt().max(r.min_sigma_xy),
             ec.covariance[(1, 1)].max(0.0).sqrt().max(r.min_sigma_xy),
@@ -281,12 +324,8 @@ impl Chooser {
             if j == c || !self.reseedable[j] {
                 continue;
             }
-            let ej = &self.estimates[j];
-            let d = ej.pose.distance(&ec.pose);
-            let var_j = xy_variance(ej).max(0.0);
-            // A NaN distance (a broken member) counts as inconsistent.
-            let consistent = d <= r.min_distance_m || d <= r.gate_sigmas * (var_j + var_c).sqrt();
-            if !consistent && self.members[j].reset_to(ec.pose, sigma) {
+            if !consistent(&self.estimates[j], &ec, &r) && self.members[j].reset_to(ec.pose, sigma)
+            {
                 self.reseeds[j] += 1;
                 self.estimates[j] = self.members[j].estimate();
             }
@@ -490,6 +529,30 @@ mod tests {
         // Laser's mean (0, 0): 0.5·N(0; 0, 0.01) + 0.5·N(0; 0.2, 0.01) — far above WiFi's
         // density at its own mean, 1·N(5; 5, 1).
         assert_eq!(chosen_after_update(strategy(by_region)), 0);
+    }
+
+    /// WiFi (x = 5, σ = 1 m) is the anchor: the laser and depth (x ≈ 0) are 5 m from it,
+    /// beyond 3 σ, so the anchor gate leaves only WiFi; once the laser agrees with it, the
+    /// laser's smaller spread wins again.
+    #[test]
+    fn anchor_gate_refuses_members_that_disagree_with_the_anchor() {
+        let mut c = Chooser::new("c", members(), Strategy::Uncertainty, None).unwrap();
+        c.set_reseedable(vec![true, true, false]).unwrap();
+        c.update(&scan());
+        assert_eq!(c.chosen(), 0, "without the gate the tightest member wins");
+        c.set_anchor_gate(true);
+        c.update(&scan());
+        assert_eq!(c.chosen(), 2);
+        let near = vec![
+            fake("laser", 3.5, 1e-4, None),
+            fake("depth", 0.2, 1e-2, None),
+            fake("wifi", 5.0, 1.0, None),
+        ];
+        let mut c = Chooser::new("c", near, Strategy::Uncertainty, None).unwrap();
+        c.set_reseedable(vec![true, true, false]).unwrap();
+        c.set_anchor_gate(true);
+        c.update(&scan());
+        assert_eq!(c.chosen(), 0);
     }
 
     #[test]

@@ -20,7 +20,9 @@
 //! - both kinds: `members`, `reseed` (default true), `reseed_members` (the members it may
 //!   move; default all), `reseed_gate_sigmas` (3),
 //!   `reseed_min_distance_m` (0.5), `reseed_min_sigma_xy` (0.3), `reseed_min_sigma_theta`
-//!   (0.1), see [`ReseedParams`];
+//!   (0.1), see [`ReseedParams`]; `anchor_gate` (default false): only members consistent
+//!   (by the re-seeding test) with every member outside `reseed_members` may be chosen, see
+//!   [`Chooser::set_anchor_gate`];
 //! - `chooser`: `strategy`; with `data_driven` exactly one of `error_map` (an [`ErrorMap`]
 //!   CSV, layers named like the members) or `training` (a scenario whose localizers are named
 //!   like the members, run `training_runs` times, default 1, with seeds derived from its own),
@@ -53,8 +55,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// The localizer kinds built here (they cannot be members of one another).
 pub const KINDS: [&str; 2] = ["chooser", "fused"];
 
-const COMMON_KEYS: [&str; 7] = [
+const COMMON_KEYS: [&str; 8] = [
     "members",
+    "anchor_gate",
     "reseed",
     "reseed_members",
     "reseed_gate_sigmas",
@@ -416,6 +419,17 @@ pub fn build(
         }
         Some(_) => return Err(err("reseed_members", "must be a list of strings".into())),
     };
+    let anchor_gate = match p.get("anchor_gate") {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(err("anchor_gate", "must be true or false".into())),
+    };
+    if anchor_gate && reseedable.iter().all(|r| *r) {
+        return Err(err(
+            "anchor_gate",
+            "needs an anchor: a member left out of reseed_members".into(),
+        ));
+    }
     let d = ReseedParams::default();
     let reseed_params = ReseedParams {
         gate_sigmas: float("reseed_gate_sigmas", d.gate_sigmas)?,
@@ -591,6 +605,7 @@ pub fn build(
     chooser
         .set_reseedable(reseedable)
         .map_err(|e| err("reseed_members", e.to_string()))?;
+    chooser.set_anchor_gate(anchor_gate);
     Ok(Box::new(chooser))
 }
 
@@ -738,6 +753,18 @@ graph = "{dir}/missing_graph_is_not_needed_here.json"
                 "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"laser\"]\nreseed_gate_sigmas = -2.0",
                 "localizers[c].reseed_gate_sigmas",
                 "must be finite and >= 0",
+            ),
+            (
+                "anchor_gate_type",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\"]\nanchor_gate = \"yes\"",
+                "localizers[c].anchor_gate",
+                "must be true or false",
+            ),
+            (
+                "anchor_gate_without_anchor",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\", \"depth\"]\nanchor_gate = true",
+                "localizers[c].anchor_gate",
+                "needs an anchor",
             ),
         ];
         for (tag, extra, field, msg) in cases {
