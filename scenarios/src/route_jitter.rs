@@ -23,16 +23,19 @@ pub const MAX_DRAWS: usize = 32;
 /// Spacing of the clearance checks along a leg, m.
 const LEG_STEP_M: f64 = 0.1;
 
-/// Whether the straight leg `a` → `b` keeps `CLEARANCE_M` from every solid.
+/// Whether the straight leg `a` → `b` keeps `CLEARANCE_M` from every solid, furniture
+/// (the world's boxes and a scenario's clutter) included.
 fn leg_is_free(world: &World, a: [f64; 2], b: [f64; 2]) -> bool {
     let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
     let n = (len / LEG_STEP_M).ceil().max(1.0) as usize;
     (0..=n).all(|i| {
         let s = i as f64 / n as f64;
-        world.is_free(
-            [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])],
-            CLEARANCE_M,
-        )
+        let p = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
+        world.is_free(p, CLEARANCE_M)
+            && world
+                .boxes
+                .iter()
+                .all(|bx| bx.signed_distance(p) >= CLEARANCE_M)
     })
 }
 

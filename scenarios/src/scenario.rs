@@ -51,6 +51,9 @@ struct ScenarioFile {
     metrics: MetricSettings,
     #[serde(default)]
     localizers: Vec<toml::Table>,
+    /// `[[clutter]]`: furniture boxes added to the world for this run (see [`add_clutter`]).
+    #[serde(default)]
+    clutter: Vec<toml::Value>,
     #[serde(default)]
     expect: toml::Table,
     #[serde(default)]
@@ -305,6 +308,55 @@ where
         .map_err(|e: toml::de::Error| ScenarioError::field(file, field, e.message().to_string()))
 }
 
+/// How far the start and every waypoint must stay from clutter, m (the robot's half-width
+/// and a margin: a waypoint inside a box would have the controller push against it).
+const CLUTTER_CLEARANCE: f64 = 0.4;
+
+/// `[[clutter]]` tables (the world's `[[boxes]]` format: `center`, `size`, `yaw`,
+/// `material`) are appended to the world's furniture for this run only: solid, seen by every
+/// sensor and, like all furniture, on no map a localizer is given — the unmapped tables,
+/// benches and people of a furnished space (004 §3's open area), without a world file per
+/// furnishing.
+fn add_clutter(
+    file: &Path,
+    world: &mut World,
+    clutter: &[toml::Value],
+) -> Result<(), ScenarioError> {
+    for (i, v) in clutter.iter().enumerate() {
+        let field = format!("clutter[{i}]");
+        let b: atrium_worlds::FurnitureBox =
+            v.clone().try_into().map_err(|e: toml::de::Error| {
+                ScenarioError::field(file, &field, e.message().to_string())
+            })?;
+        b.validate(world.ceiling_height)
+            .map_err(|(key, msg)| ScenarioError::field(file, format!("{field}.{key}"), msg))?;
+        if world.material(&b.material).is_none() {
+            let known: Vec<&str> = world.materials.iter().map(|m| m.name.as_str()).collect();
+            return Err(ScenarioError::field(
+                file,
+                format!("{field}.material"),
+                format!(
+                    "world {:?} has no material {:?} (has: {})",
+                    world.name,
+                    b.material,
+                    known.join(", ")
+                ),
+            ));
+        }
+        world.boxes.push(b);
+    }
+    Ok(())
+}
+
+/// Index within `[[clutter]]` of the first clutter box (the last `n` of the world's boxes)
+/// closer than `margin` to `p`.
+fn clutter_within(world: &World, n: usize, p: [f64; 2], margin: f64) -> Option<usize> {
+    let first = world.boxes.len() - n;
+    world.boxes[first..]
+        .iter()
+        .position(|b| b.signed_distance(p) < margin)
+}
+
 impl Scenario {
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
@@ -323,7 +375,8 @@ impl Scenario {
         let dir = file.parent().unwrap_or(Path::new("."));
         let world_file = dir.join(&raw.world);
         let robot_file = dir.join(&raw.robot);
-        let world = World::load(&world_file)?;
+        let mut world = World::load(&world_file)?;
+        add_clutter(file, &mut world, &raw.clutter)?;
         let robot = RobotModel::from_urdf(&robot_file)?;
 
         check_positive(file, "duration_s", raw.duration_s)?;
@@ -383,6 +436,28 @@ impl Scenario {
                     ),
                 ));
             }
+            if let Some(b) = clutter_within(&world, raw.clutter.len(), *w, CLUTTER_CLEARANCE) {
+                return Err(ScenarioError::field(
+                    file,
+                    field,
+                    format!(
+                        "({}, {}) is within {CLUTTER_CLEARANCE} m of clutter[{b}]",
+                        w[0], w[1]
+                    ),
+                ));
+            }
+        }
+        if let Some(b) = clutter_within(
+            &world,
+            raw.clutter.len(),
+            [start.x, start.y],
+            CLUTTER_CLEARANCE,
+        ) {
+            return Err(ScenarioError::field(
+                file,
+                "start.pose",
+                format!("is within {CLUTTER_CLEARANCE} m of clutter[{b}]"),
+            ));
         }
 
         let controller = match &raw.controller {

@@ -173,6 +173,30 @@ fn bad_scenarios_exit_2_naming_file_and_field() {
             "expect.mcl.median_maxx",
         ),
         ("noworld", "campus.toml", "nowhere.toml", "nowhere.toml"),
+        (
+            "clutter_on_route",
+            "seed = 3",
+            "seed = 3\nclutter = [{ center = [8.0, 20.2], size = [0.8, 0.8, 0.75], material = \"wood\" }]",
+            "route.waypoints[0]",
+        ),
+        (
+            "clutter_material",
+            "seed = 3",
+            "seed = 3\nclutter = [{ center = [5.0, 20.0], size = [0.8, 0.8, 0.75], material = \"marble\" }]",
+            "clutter[0].material",
+        ),
+        (
+            "clutter_size",
+            "seed = 3",
+            "seed = 3\nclutter = [{ center = [5.0, 20.0], size = [0.8, nan, 0.75], material = \"wood\" }]",
+            "clutter[0].size",
+        ),
+        (
+            "clutter_key",
+            "seed = 3",
+            "seed = 3\nclutter = [{ centre = [5.0, 20.0], size = [0.8, 0.8, 0.75], material = \"wood\" }]",
+            "clutter[0]",
+        ),
     ];
     for (tag, from, to, field) in cases {
         let p = variant(tag, from, to);
