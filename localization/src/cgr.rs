@@ -34,9 +34,9 @@ use crate::localizer::{Estimate, Localizer, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particles::{
-    accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
+    accumulate_odometry, carried_by_odometry, redraw_gaussian, resample_columns,
+    weighted_mean_covariance, weights_from_log_likelihoods,
 };
-use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
 use nalgebra::Matrix3;
@@ -592,33 +592,15 @@ impl Cgr {
             self.stamp,
             per_unit_log_mean(&self.logw[..n], self.obs.len()),
         );
-        let max = self.logw[..n]
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let mut sum = 0.0;
-        for i in 0..n {
-            let w = (self.logw[i] - max).exp();
-            self.w[i] = w;
-            sum += w;
-        }
-        for w in &mut self.w[..n] {
-            *w /= sum;
-        }
+        weights_from_log_likelihoods(&self.logw[..n], &mut self.w[..n]);
         self.compute_estimate();
-        if !low_variance_indices(&self.w[..n], &mut self.idx[..n], &mut self.rng) {
-            return;
-        }
-        for k in 0..n {
-            let i = self.idx[k];
-            self.x2[k] = self.x[i];
-            self.y2[k] = self.y[i];
-            self.th2[k] = self.th[i];
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.w[..n].fill(1.0 / n as f64);
+        resample_columns(
+            [&mut self.x, &mut self.y, &mut self.th],
+            [&mut self.x2, &mut self.y2, &mut self.th2],
+            &mut self.w[..n],
+            &mut self.idx[..n],
+            &mut self.rng,
+        );
     }
 
     /// Weighted mean (circular for θ) and covariance of the current set.

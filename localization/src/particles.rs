@@ -105,6 +105,16 @@ pub fn normalize_weights(w: &mut [f64]) {
     }
 }
 
+/// Normalised weights from log-likelihoods, computed in log space (the raw product of many
+/// densities under- or overflows): w_i ∝ exp(logw_i − max_j logw_j).
+pub fn weights_from_log_likelihoods(logw: &[f64], w: &mut [f64]) {
+    let max = logw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    for (wi, &l) in w.iter_mut().zip(logw) {
+        *wi = (l - max).exp();
+    }
+    normalize_weights(w);
+}
+
 /// Effective sample size 1 / Σ w² of normalised weights.
 pub fn effective_sample_size(w: &[f64]) -> f64 {
     1.0 / w.iter().map(|v| v * v).sum::<f64>()
@@ -161,6 +171,20 @@ pub fn redraw_gaussian(
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    /// Log-likelihoods far below what exp can represent still give the right ratios; a set
+    /// where every particle is impossible keeps uniform weights.
+    #[test]
+    fn weights_from_log_likelihoods_are_computed_in_log_space() {
+        let mut w = [0.0; 2];
+        weights_from_log_likelihoods(&[-2000.0, -2000.0 + 3f64.ln()], &mut w);
+        assert!(
+            (w[0] - 0.25).abs() < 1e-12 && (w[1] - 0.75).abs() < 1e-12,
+            "{w:?}"
+        );
+        weights_from_log_likelihoods(&[f64::NEG_INFINITY; 2], &mut w);
+        assert_eq!(w, [0.5, 0.5]);
+    }
 
     #[test]
     fn weights_normalise_and_degenerate_ones_become_uniform() {

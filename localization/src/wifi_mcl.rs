@@ -28,6 +28,7 @@ use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particles::{
     accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
+    weights_from_log_likelihoods,
 };
 use crate::resampling::low_variance_indices;
 use crate::wifi_graph::WifiGraph;
@@ -402,19 +403,7 @@ impl WifiMcl {
                 *off = false;
             }
         }
-        let max = self.logw[..n]
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let mut sum = 0.0;
-        for i in 0..n {
-            let w = (self.logw[i] - max).exp();
-            self.w[i] = w;
-            sum += w;
-        }
-        for w in &mut self.w[..n] {
-            *w /= sum;
-        }
+        weights_from_log_likelihoods(&self.logw[..n], &mut self.w[..n]);
         self.compute_estimate();
         self.resample();
     }
