@@ -101,22 +101,7 @@ impl CeilingSensorSpec {
                 ),
             ));
         }
-        for (k, v) in [
-            ("z", self.z),
-            ("gain", self.gain),
-            ("rate_hz", self.rate_hz),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(err(k, format!("must be finite and > 0, got {v}")));
-            }
-        }
-        if !(self.noise_sigma.is_finite() && self.noise_sigma >= 0.0) {
-            return Err(err(
-                "noise_sigma",
-                format!("must be finite and >= 0, got {}", self.noise_sigma),
-            ));
-        }
-        Ok(())
+        validate_rendering(field, self.z, self.gain, self.rate_hz, self.noise_sigma)
     }
 
     /// Focal length in pixels.
@@ -190,22 +175,7 @@ impl OmniSensorSpec {
                 ),
             ));
         }
-        for (k, v) in [
-            ("z", self.z),
-            ("gain", self.gain),
-            ("rate_hz", self.rate_hz),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(err(k, format!("must be finite and > 0, got {v}")));
-            }
-        }
-        if !(self.noise_sigma.is_finite() && self.noise_sigma >= 0.0) {
-            return Err(err(
-                "noise_sigma",
-                format!("must be finite and >= 0, got {}", self.noise_sigma),
-            ));
-        }
-        Ok(())
+        validate_rendering(field, self.z, self.gain, self.rate_hz, self.noise_sigma)
     }
 
     /// The renderer (the same one the omni map is trained with).
@@ -498,6 +468,30 @@ impl CameraStream {
             }
         }
     }
+}
+
+/// The checks every camera shares: mount height `z`, `gain` and `rate_hz` positive, pixel
+/// `noise_sigma` non-negative; errors name `field.<key>`.
+fn validate_rendering(
+    field: &str,
+    z: f64,
+    gain: f64,
+    rate_hz: f64,
+    noise_sigma: f64,
+) -> Result<(), SimError> {
+    let err = |k: &str, m: String| SimError::config(format!("{field}.{k}"), m);
+    for (k, v) in [("z", z), ("gain", gain), ("rate_hz", rate_hz)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(err(k, format!("must be finite and > 0, got {v}")));
+        }
+    }
+    if !(noise_sigma.is_finite() && noise_sigma >= 0.0) {
+        return Err(err(
+            "noise_sigma",
+            format!("must be finite and >= 0, got {noise_sigma}"),
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
