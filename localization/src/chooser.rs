@@ -308,6 +308,13 @@ impl Chooser {
                 }
             }
         }
+        // Data-driven with no map data near the current estimate: the estimate has left the
+        // area the map was learnt on, which the drive never does — it is wrong. Keeping the
+        // choice would lock onto the member that took it there (re-seeding drags the others
+        // along), so fall back to an anchor, which re-seeding never moves.
+        if best.is_none() && matches!(self.strategy, Strategy::DataDriven { .. }) {
+            return self.reseedable.iter().position(|r| !r);
+        }
         best.map(|(k, _)| k)
     }
 
@@ -505,6 +512,26 @@ mod tests {
             radius_cells: 1,
         };
         assert_eq!(chosen_after_update(strategy), 1);
+    }
+
+    /// Where the map has nothing near the current estimate (it has left the mapped area),
+    /// the data-driven chooser falls back to the anchor instead of keeping its choice.
+    #[test]
+    fn data_driven_falls_back_to_the_anchor_off_the_map() {
+        let names = vec!["wifi".to_string(), "laser".into(), "depth".into()];
+        let mut map = ErrorMap::new([-10.0, -10.0], [10.0, 10.0], 1.0, names).unwrap();
+        map.add(1, [8.5, 8.5], 0.01);
+        let strategy = Strategy::DataDriven {
+            map: Arc::new(map),
+            layers: vec![1, 2, 0],
+            radius_cells: 1,
+        };
+        let mut c = Chooser::new("c", members(), strategy, None).unwrap();
+        c.update(&scan());
+        assert_eq!(c.chosen(), 0, "without an anchor the choice is kept");
+        c.set_reseedable(vec![true, true, false]).unwrap();
+        c.update(&scan());
+        assert_eq!(c.chosen(), 2);
     }
 
     #[test]
