@@ -318,11 +318,7 @@ impl ApfParams {
                 return Err(format!("{name} must be finite and > 0, got {v}"));
             }
         }
-        for (i, a) in self.alpha.iter().enumerate() {
-            if !(a.is_finite() && *a >= 0.0) {
-                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
-            }
-        }
+        crate::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
                 "outlier must be within (0, 1), got {}",

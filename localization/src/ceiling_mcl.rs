@@ -296,17 +296,8 @@ impl Default for CeilingMclParams {
 
 impl CeilingMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=1_000_000).contains(&self.particles) {
-            return Err(format!(
-                "particles must be within [1, 1000000], got {}",
-                self.particles
-            ));
-        }
-        for (i, a) in self.alpha.iter().enumerate() {
-            if !(a.is_finite() && *a >= 0.0) {
-                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
-            }
-        }
+        crate::particles::validate_particle_count(self.particles)?;
+        crate::motion::validate_alpha(&self.alpha)?;
         for (name, v) in [("sigma", self.sigma), ("range", self.range)] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{name} must be finite and > 0, got {v}"));

@@ -132,11 +132,7 @@ impl CgrParams {
                 self.particles
             ));
         }
-        for (i, a) in self.alpha.iter().enumerate() {
-            if !(a.is_finite() && *a >= 0.0) {
-                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
-            }
-        }
+        crate::motion::validate_alpha(&self.alpha)?;
         if self.refinements > 100 {
             return Err(format!(
                 "refinements must be <= 100, got {}",

@@ -38,6 +38,17 @@ pub struct OdometryIncrement {
     pub sd_rot2: f64,
 }
 
+/// Checks the odometry noise coefficients α1–α4 a filter's parameters name `alpha`: each
+/// finite and non-negative.
+pub fn validate_alpha(alpha: &[f64; 4]) -> Result<(), String> {
+    for (i, a) in alpha.iter().enumerate() {
+        if !(a.is_finite() && *a >= 0.0) {
+            return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
+        }
+    }
+    Ok(())
+}
+
 impl OdometryMotionModel {
     pub const fn new(alpha: [f64; 4]) -> Self {
         Self { alpha }

@@ -76,17 +76,8 @@ impl Default for OmniMclParams {
 
 impl OmniMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=1_000_000).contains(&self.particles) {
-            return Err(format!(
-                "particles must be within [1, 1000000], got {}",
-                self.particles
-            ));
-        }
-        for (i, a) in self.alpha.iter().enumerate() {
-            if !(a.is_finite() && *a >= 0.0) {
-                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
-            }
-        }
+        crate::particles::validate_particle_count(self.particles)?;
+        crate::motion::validate_alpha(&self.alpha)?;
         if let Some(s) = self.sigma {
             if !(s.is_finite() && s > 0.0) {
                 return Err(format!("sigma must be finite and > 0, got {s}"));

@@ -31,6 +31,16 @@ pub fn weighted_mean_covariance(
     (Pose2::new(mx, my, mt), cov)
 }
 
+/// Checks a particle filter's `particles` count: within [1, 1 000 000].
+pub fn validate_particle_count(particles: usize) -> Result<(), String> {
+    if !(1..=1_000_000).contains(&particles) {
+        return Err(format!(
+            "particles must be within [1, 1000000], got {particles}"
+        ));
+    }
+    Ok(())
+}
+
 /// Adds one odometry step to the motion not yet applied to the particles, and advances the
 /// filter's clock. Non-finite odometry is ignored (a broken encoder reading must not poison
 /// the particle set).

@@ -112,23 +112,14 @@ impl Default for WifiMclParams {
 
 impl WifiMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=1_000_000).contains(&self.particles) {
-            return Err(format!(
-                "particles must be within [1, 1000000], got {}",
-                self.particles
-            ));
-        }
+        crate::particles::validate_particle_count(self.particles)?;
         if !(1..=10_000_000).contains(&self.global_particles) {
             return Err(format!(
                 "global_particles must be within [1, 10000000], got {}",
                 self.global_particles
             ));
         }
-        for (i, a) in self.alpha.iter().enumerate() {
-            if !(a.is_finite() && *a >= 0.0) {
-                return Err(format!("alpha[{i}] must be finite and >= 0, got {a}"));
-            }
-        }
+        crate::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
                 "outlier must be within (0, 1), got {}",
