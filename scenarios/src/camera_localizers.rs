@@ -85,29 +85,34 @@ impl<'a> Table<'a> {
         ScenarioError::field(&self.scenario.file, f, msg)
     }
 
-    /// `sensor`, or the first of `names`; `what` names the camera kind for the messages.
-    fn sensor(&self, names: &[String], what: &str) -> Result<String, ScenarioError> {
-        match self.own.get("sensor") {
+    /// The camera named `sensor`, or the first of `cams`, with its name (`name_of`); `what`
+    /// names the camera kind for the messages.
+    fn camera<C: Clone>(
+        &self,
+        cams: &[C],
+        name_of: impl Fn(&C) -> &str,
+        what: &str,
+    ) -> Result<(String, C), ScenarioError> {
+        let found = match self.own.get("sensor") {
             Some(v) => {
                 let s = v
                     .as_str()
                     .ok_or_else(|| self.err("sensor", "must be a string"))?;
-                if names.iter().any(|n| n == s) {
-                    Ok(s.to_string())
-                } else {
-                    Err(self.err(
+                cams.iter().find(|c| name_of(c) == s).ok_or_else(|| {
+                    self.err(
                         "sensor",
                         format!("no camera with kind = \"{what}\" named {s:?} in [sensors]"),
-                    ))
-                }
+                    )
+                })
             }
-            None => names.first().cloned().ok_or_else(|| {
+            None => cams.first().ok_or_else(|| {
                 self.err(
                     "kind",
                     format!("needs a camera: add a [sensors.<name>] table with kind = \"{what}\""),
                 )
             }),
-        }
+        }?;
+        Ok((name_of(found).to_string(), found.clone()))
     }
 
     fn grid(&self) -> Result<TrainingGrid, ScenarioError> {
@@ -184,14 +189,7 @@ pub fn build_ceiling_mcl(
         scenario,
         &["sensor", "training", "training_lighting", "training_seed"],
     );
-    let cams = &scenario.cameras.ceiling;
-    let names: Vec<String> = cams.iter().map(|c| c.name.clone()).collect();
-    let sensor = t.sensor(&names, "ceiling")?;
-    let camera = cams
-        .iter()
-        .find(|c| c.name == sensor)
-        .expect("sensor() returns a known name")
-        .clone();
+    let (sensor, camera) = t.camera(&scenario.cameras.ceiling, |c| &c.name, "ceiling")?;
     let grid = t.grid()?;
     let lighting = t.lighting()?;
     let training_seed = t.int("training_seed", 1)? as u64;
@@ -267,14 +265,7 @@ pub fn build_omni(
             "pca_locations",
         ],
     );
-    let cams = &scenario.cameras.omni;
-    let names: Vec<String> = cams.iter().map(|c| c.name.clone()).collect();
-    let sensor = t.sensor(&names, "omni")?;
-    let camera = cams
-        .iter()
-        .find(|c| c.name == sensor)
-        .expect("sensor() returns a known name")
-        .clone();
+    let (sensor, camera) = t.camera(&scenario.cameras.omni, |c| &c.name, "omni")?;
     let grid = t.grid()?;
     let lighting = t.lighting()?;
     let defaults = OmniMapParams::default();
