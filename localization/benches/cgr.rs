@@ -117,8 +117,9 @@ fn benches(c: &mut Criterion) {
                     stamp: 0.0,
                     from: Pose2::default(),
                     to: Pose2::new(0.0, 0.0, 0.0),
-                });
-                cgr.update(black_box(&reading));
+                })
+                .unwrap();
+                cgr.update(black_box(&reading)).unwrap();
             })
         });
     }

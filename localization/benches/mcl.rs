@@ -114,9 +114,10 @@ fn benches(c: &mut Criterion) {
                     stamp: k as f64,
                     from: odom,
                     to: next,
-                });
+                })
+                .unwrap();
                 odom = next;
-                mcl.update(black_box(&scan));
+                mcl.update(black_box(&scan)).unwrap();
                 black_box(mcl.estimate())
             })
         });

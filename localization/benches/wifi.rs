@@ -136,7 +136,7 @@ fn likelihood(c: &mut Criterion) {
             1,
         )
         .unwrap();
-        f.update(&Reading::Wifi(scan.clone())); // loads the scan
+        f.update(&Reading::Wifi(scan.clone())).unwrap(); // loads the scan
         group.bench_function(format!("trained_on_{n}"), |b| {
             b.iter(|| black_box(f.log_likelihood_at(black_box(p[0]), black_box(p[1]))))
         });

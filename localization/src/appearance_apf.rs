@@ -28,7 +28,7 @@ use crate::appearance::{fuse, AppearanceMap, Component, PoseKernel};
 use crate::ceiling_mcl::sample_initial_belief;
 use crate::em_pca::{EmPca, EmPcaParams, ProjectionScratch};
 use crate::error::LocalizationError;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
@@ -699,15 +699,16 @@ impl Localizer for AppearanceApf {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         // Time moved past a frame whose partner never came: use it alone.
         self.flush_older_than(delta.stamp);
         accumulate_odometry(&mut self.pending_motion, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// Intensity images (and disparity maps when the map has disparity features) of the
     /// configured sensors; a bad image is counted in [`AppearanceApf::rejected`], never a panic.
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         match reading {
             Reading::Intensity(img)
                 if sensor_matches(&self.params.intensity_sensor, &img.sensor) =>
@@ -748,6 +749,7 @@ impl Localizer for AppearanceApf {
             }
             _ => {}
         }
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
@@ -759,6 +761,12 @@ impl Localizer for AppearanceApf {
         )
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for AppearanceApf {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
     }
@@ -854,9 +862,10 @@ mod tests {
                 stamp: t as f64,
                 from: odo,
                 to: next,
-            });
+            })
+            .unwrap();
             odo = next;
-            f.update(&image(&truth, t as f64));
+            f.update(&image(&truth, t as f64)).unwrap();
             errs.push(f.estimate().pose.distance(&truth));
         }
         assert_eq!(f.updates(), 40);
@@ -889,8 +898,9 @@ mod tests {
             stamp: 1.0,
             from: Pose2::default(),
             to: Pose2::new(0.2, 0.0, 0.0),
-        });
-        f.update(&image(&Pose2::new(3.5, 2.0, 2.5), 1.0));
+        })
+        .unwrap();
+        f.update(&image(&Pose2::new(3.5, 2.0, 2.5), 1.0)).unwrap();
         let e = f.estimate().pose;
         assert!(e.distance(&Pose2::new(1.2, 1.0, 0.0)) < 0.1, "{e:?}");
     }
@@ -910,11 +920,11 @@ mod tests {
             unreachable!()
         };
         img.pixels.pop();
-        f.update(&Reading::Intensity(img.clone()));
+        f.update(&Reading::Intensity(img.clone())).unwrap();
         assert_eq!(f.rejected(), 1);
         assert!(f.last_error().unwrap().to_string().contains("8 × 4"));
         img.pixels.push(f32::NAN);
-        f.update(&Reading::Intensity(img));
+        f.update(&Reading::Intensity(img)).unwrap();
         assert_eq!(f.rejected(), 2);
         assert!(f.last_error().unwrap().to_string().contains("non-finite"));
         assert_eq!(f.updates(), 0);
@@ -991,7 +1001,7 @@ mod tests {
         )
         .unwrap();
         let p = poses[17];
-        f.update(&image(&p, 2.0));
+        f.update(&image(&p, 2.0)).unwrap();
         assert_eq!(f.updates(), 0, "waits for the disparity of the same frame");
         f.update(&Reading::Disparity(DisparityImage {
             stamp: 2.0,
@@ -1001,17 +1011,19 @@ mod tests {
             fx: 1.0,
             baseline: 0.1,
             disparity: disp[17].clone(),
-        }));
+        }))
+        .unwrap();
         assert_eq!(f.updates(), 1);
         assert_eq!(f.last_sensor_model().len(), 10, "5 + 5 components");
         // An intensity image alone is used once time moves on.
-        f.update(&image(&p, 3.0));
+        f.update(&image(&p, 3.0)).unwrap();
         assert_eq!(f.updates(), 1);
         f.predict(&OdometryDelta {
             stamp: 3.1,
             from: Pose2::default(),
             to: Pose2::default(),
-        });
+        })
+        .unwrap();
         assert_eq!(f.updates(), 2);
         assert_eq!(f.last_sensor_model().len(), 5);
     }

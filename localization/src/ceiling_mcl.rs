@@ -12,7 +12,7 @@
 //! the right hypothesis.
 
 use crate::error::LocalizationError;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::particles::{
@@ -490,18 +490,19 @@ impl Localizer for CeilingMcl {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
     /// one is counted in [`CeilingMcl::rejected`].
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         let Reading::Intensity(img) = reading else {
-            return;
+            return Ok(());
         };
         if img.sensor != self.params.sensor {
-            return;
+            return Ok(());
         }
         match reading_brightness(img).and_then(|z| self.observe(z)) {
             Ok(()) => self.stamp = self.stamp.max(img.stamp),
@@ -510,12 +511,19 @@ impl Localizer for CeilingMcl {
                 self.last_error = Some(e);
             }
         }
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for CeilingMcl {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
     }
@@ -632,10 +640,11 @@ mod tests {
                 stamp: t as f64,
                 from: odo,
                 to: next,
-            });
+            })
+            .unwrap();
             odo = next;
             let z = lamp(truth.x, truth.y) + 0.01 * rng.sample::<f64, _>(StandardNormal);
-            f.update(&reading(z as f32, t as f64));
+            f.update(&reading(z as f32, t as f64)).unwrap();
         }
         let e = f.estimate().pose;
         assert!(e.distance(&truth) < 0.3, "{e:?} vs {truth:?}");
@@ -652,17 +661,17 @@ mod tests {
             1,
         )
         .unwrap();
-        f.update(&reading(f32::NAN, 1.0));
+        f.update(&reading(f32::NAN, 1.0)).unwrap();
         assert_eq!(f.rejected(), 1);
         assert!(f.last_error().unwrap().to_string().contains("non-finite"));
         let Reading::Intensity(mut img) = reading(0.5, 1.0) else {
             unreachable!()
         };
         img.width = 2;
-        f.update(&Reading::Intensity(img.clone()));
+        f.update(&Reading::Intensity(img.clone())).unwrap();
         assert_eq!(f.rejected(), 2);
         img.sensor = "other".into();
-        f.update(&Reading::Intensity(img));
+        f.update(&Reading::Intensity(img)).unwrap();
         assert_eq!(f.rejected(), 2, "other sensors are ignored");
         assert_eq!(f.updates(), 0);
         let e = CeilingMcl::new(

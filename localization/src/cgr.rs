@@ -30,7 +30,7 @@
 use crate::error::LocalizationError;
 use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particles::{
@@ -615,15 +615,16 @@ impl Localizer for Cgr {
     }
 
     /// Accumulates odometry; the motion model runs at the next observation (step 1).
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// Laser scans for a laser CGR, depth images for a depth CGR; everything else is
     /// ignored. A depth image FSPF cannot use (η larger than the image, malformed
     /// intrinsics) is skipped: the parameters were checked against the camera when the
     /// localizer was built.
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         match (reading, &self.source) {
             (Reading::Laser(scan), Source::Laser) => {
                 self.stamp = self.stamp.max(scan.stamp);
@@ -632,18 +633,25 @@ impl Localizer for Cgr {
             (Reading::Depth(img), Source::Depth { .. }) => {
                 self.stamp = self.stamp.max(img.stamp);
                 if self.observe_depth(img).is_err() {
-                    return;
+                    return Ok(());
                 }
             }
-            _ => return,
+            _ => return Ok(()),
         }
         self.cgr_update();
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for Cgr {
     fn observation_fit(&self) -> Option<f64> {
         self.fit.fit()
     }
@@ -770,7 +778,8 @@ mod tests {
                 stamp: k as f64,
                 from: odo,
                 to: next_odo,
-            });
+            })
+            .unwrap();
             truth = next;
             odo = next_odo;
             // The exact endpoints, straight into the observation (the scan path is the

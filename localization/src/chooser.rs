@@ -6,7 +6,7 @@
 //! - [`Strategy::Uncertainty`] (§4.1): the member with the smallest computed uncertainty, the
 //!   trace of its xy covariance (particle spread for the particle filters);
 //! - [`Strategy::Mismatch`] (§4.2): the member whose observations agree best with its belief,
-//!   [`Localizer::observation_fit`] (w_fast / w_slow, made scale-free per sensor: see
+//!   [`Capabilities::observation_fit`] (w_fast / w_slow, made scale-free per sensor: see
 //!   `observation_fit.rs`); §4.2 itself warns this is not comparable across sensor types;
 //! - [`Strategy::DataDriven`] (§4.3): the member with the lowest mean error in a per-location
 //!   error map ([`ErrorMap`], §3 Figure 2), looked up at the current estimate;
@@ -16,7 +16,7 @@
 //!
 //! Beyond the paper as well, re-seeding: once a member is chosen, every other member whose
 //! estimate is inconsistent with the chosen one is re-seeded around it
-//! ([`Localizer::reset_to`]). Without it a laser filter lost in the atrium's open interior
+//! ([`Capabilities::reset_to`]). Without it a laser filter lost in the atrium's open interior
 //! stays lost in the corridors after it, where it would otherwise be the best sensor. The
 //! test is on both uncertainties, d > k·√(σ²_member + σ²_chosen) and d > `min_distance_m`:
 //! a gate on the member's own uncertainty alone would drag an accurate laser filter (σ of
@@ -31,7 +31,10 @@
 
 use crate::error::LocalizationError;
 use crate::error_map::ErrorMap;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{
+    observation_fit_of, reset_localizer, Capabilities, Estimate, Localizer, LocalizerError,
+    OdometryDelta,
+};
 use crate::mixture::{log_density_xy, RegionMixture};
 use atrium_robots::{Pose2, Reading};
 use std::sync::Arc;
@@ -41,7 +44,7 @@ use std::sync::Arc;
 pub enum Strategy {
     /// Smallest trace of the xy covariance (004 §4.1).
     Uncertainty,
-    /// Largest [`Localizer::observation_fit`] (004 §4.2).
+    /// Largest [`Capabilities::observation_fit`] (004 §4.2).
     Mismatch,
     /// Lowest mean error of the member's layer `layers[k]` of `map` near the current estimate
     /// (within `radius_cells`, see [`ErrorMap::mean_near`]) (004 §4.3).
@@ -129,6 +132,8 @@ pub struct Chooser {
     anchor_gate: bool,
     /// Scratch for the members' estimates (no allocation per update).
     estimates: Vec<Estimate>,
+    /// The members' observation fits, refreshed with the estimates.
+    fits: Vec<Option<f64>>,
 }
 
 /// The consistency test of re-seeding and of the anchor gate: `a` and `b` agree when they are
@@ -178,6 +183,7 @@ impl Chooser {
             r.validate().map_err(LocalizationError::InvalidParameter)?;
         }
         let estimates = members.iter().map(|m| m.estimate()).collect();
+        let fits = vec![None; members.len()];
         Ok(Chooser {
             name: name.to_owned(),
             members,
@@ -189,6 +195,7 @@ impl Chooser {
             reseeds: vec![0; k],
             anchor_gate: false,
             estimates,
+            fits,
         })
     }
 
@@ -256,7 +263,7 @@ impl Chooser {
             let e = &self.estimates[k];
             match &self.strategy {
                 Strategy::Uncertainty => Some(xy_variance(e)),
-                Strategy::Mismatch => self.members[k].observation_fit().map(|f| -f),
+                Strategy::Mismatch => self.fits[k].map(|f| -f),
                 Strategy::DataDriven {
                     map,
                     layers,
@@ -331,7 +338,8 @@ impl Chooser {
             if j == c || !self.reseedable[j] {
                 continue;
             }
-            if !consistent(&self.estimates[j], &ec, &r) && self.members[j].reset_to(ec.pose, sigma)
+            if !consistent(&self.estimates[j], &ec, &r)
+                && reset_localizer(self.members[j].as_mut(), ec.pose, sigma)
             {
                 self.reseeds[j] += 1;
                 self.estimates[j] = self.members[j].estimate();
@@ -340,8 +348,14 @@ impl Chooser {
     }
 
     fn refresh_estimates(&mut self) {
-        for (e, m) in self.estimates.iter_mut().zip(&self.members) {
+        for ((e, f), m) in self
+            .estimates
+            .iter_mut()
+            .zip(&mut self.fits)
+            .zip(&mut self.members)
+        {
             *e = m.estimate();
+            *f = observation_fit_of(m.as_mut());
         }
     }
 }
@@ -351,17 +365,18 @@ impl Localizer for Chooser {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         for m in &mut self.members {
-            m.predict(delta);
+            m.predict(delta)?;
         }
+        Ok(())
     }
 
     /// Every member sees the reading; then the choice is made again, and inconsistent members
     /// are re-seeded.
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         for m in &mut self.members {
-            m.update(reading);
+            m.update(reading)?;
         }
         self.refresh_estimates();
         if let Some(k) = self.choose() {
@@ -371,25 +386,32 @@ impl Localizer for Chooser {
         if let Some(r) = self.reseed {
             self.reseed_members(r);
         }
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
         self.members[self.chosen].estimate()
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for Chooser {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
     }
 
     fn observation_fit(&self) -> Option<f64> {
-        self.members[self.chosen].observation_fit()
+        self.fits[self.chosen]
     }
 
     /// Re-seeds every member; true if any could be.
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         let mut any = false;
         for m in &mut self.members {
-            any |= m.reset_to(pose, sigma);
+            any |= reset_localizer(m.as_mut(), pose, sigma);
         }
         any
     }
@@ -423,8 +445,12 @@ mod tests {
         fn name(&self) -> &str {
             &self.name
         }
-        fn predict(&mut self, _delta: &OdometryDelta) {}
-        fn update(&mut self, _reading: &Reading) {}
+        fn predict(&mut self, _delta: &OdometryDelta) -> Result<(), LocalizerError> {
+            Ok(())
+        }
+        fn update(&mut self, _reading: &Reading) -> Result<(), LocalizerError> {
+            Ok(())
+        }
         fn estimate(&self) -> Estimate {
             Estimate {
                 stamp: 0.0,
@@ -434,12 +460,21 @@ mod tests {
                 )),
             }
         }
+
+        fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+            Some(self)
+        }
+    }
+
+    impl Capabilities for Fake {
         fn as_any(&self) -> Option<&dyn std::any::Any> {
             Some(self)
         }
+
         fn observation_fit(&self) -> Option<f64> {
             self.fit
         }
+
         fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
             self.pose = pose;
             self.var = sigma[0] * sigma[0];
@@ -480,7 +515,7 @@ mod tests {
 
     fn chosen_after_update(strategy: Strategy) -> usize {
         let mut c = Chooser::new("c", members(), strategy, None).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.choice_counts()[c.chosen()], 1);
         c.chosen()
     }
@@ -527,10 +562,10 @@ mod tests {
             radius_cells: 1,
         };
         let mut c = Chooser::new("c", members(), strategy, None).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 0, "without an anchor the choice is kept");
         c.set_reseedable(vec![true, true, false]).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 2);
     }
 
@@ -565,10 +600,10 @@ mod tests {
     fn anchor_gate_refuses_members_that_disagree_with_the_anchor() {
         let mut c = Chooser::new("c", members(), Strategy::Uncertainty, None).unwrap();
         c.set_reseedable(vec![true, true, false]).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 0, "without the gate the tightest member wins");
         c.set_anchor_gate(true);
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 2);
         let near = vec![
             fake("laser", 3.5, 1e-4, None),
@@ -578,7 +613,7 @@ mod tests {
         let mut c = Chooser::new("c", near, Strategy::Uncertainty, None).unwrap();
         c.set_reseedable(vec![true, true, false]).unwrap();
         c.set_anchor_gate(true);
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 0);
     }
 
@@ -593,7 +628,7 @@ mod tests {
             }),
         };
         let mut c = Chooser::new("c", members(), strategy, Some(ReseedParams::default())).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.chosen(), 2);
         assert_eq!(c.reseed_counts(), &[1, 1, 0]);
         for m in &c.members()[..2] {
@@ -603,7 +638,7 @@ mod tests {
             assert!((e.covariance[(0, 0)] - 1.0).abs() < 1e-12);
         }
         // Now all agree: a second update re-seeds nothing.
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.reseed_counts(), &[1, 1, 0]);
 
         // The laser chosen (uncertainty): WiFi 5 m off with σ = 1 m is beyond 3·√(1 + 1e-4)
@@ -615,21 +650,16 @@ mod tests {
             Some(ReseedParams::default()),
         )
         .unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.reseed_counts(), &[0, 0, 1]);
-        let wifi = c.members()[2]
-            .as_any()
-            .unwrap()
-            .downcast_ref::<Fake>()
-            .unwrap();
-        assert_eq!(wifi.resets, 1);
+        let wifi = c.members()[2].estimate();
         assert!(wifi.pose.x.abs() < 1e-12);
         // ... with the floored spread, not the laser's centimetres.
-        assert!((wifi.var - 0.09).abs() < 1e-12);
+        assert!((wifi.covariance[(0, 0)] - 0.09).abs() < 1e-12);
 
         // Without re-seeding nothing moves.
         let mut c = Chooser::new("c", members(), Strategy::Uncertainty, None).unwrap();
-        c.update(&scan());
+        c.update(&scan()).unwrap();
         assert_eq!(c.reseed_counts(), &[0, 0, 0]);
         assert_eq!(c.estimate().pose.x, 0.0);
     }

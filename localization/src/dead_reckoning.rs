@@ -1,7 +1,7 @@
 //! Dead reckoning: the odometry pose carried over to the map frame, with a covariance that
 //! grows with the distance travelled and the rotation accumulated.
 
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Estimate, Localizer, LocalizerError, OdometryDelta};
 use atrium_robots::{normalize_angle, Pose2, Reading};
 use nalgebra::Matrix3;
 
@@ -90,9 +90,9 @@ impl Localizer for DeadReckoning {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         if !delta.from.is_finite() || !delta.to.is_finite() {
-            return;
+            return Ok(());
         }
         if self.first.is_none() {
             self.first = Some(delta.from);
@@ -104,10 +104,13 @@ impl Localizer for DeadReckoning {
         self.rotation += normalize_angle(delta.to.theta - self.last.theta).abs();
         self.last = delta.to;
         self.stamp = delta.stamp;
+        Ok(())
     }
 
     /// Dead reckoning uses no exteroceptive reading; odometry arrives through `predict`.
-    fn update(&mut self, _reading: &Reading) {}
+    fn update(&mut self, _reading: &Reading) -> Result<(), LocalizerError> {
+        Ok(())
+    }
 
     fn estimate(&self) -> Estimate {
         let s_xy = self.drift.k_d * self.distance;
@@ -141,8 +144,8 @@ mod tests {
         let o0 = Pose2::new(10.0, 5.0, FRAC_PI_2);
         let o1 = Pose2::new(10.0, 6.0, FRAC_PI_2);
         let o2 = Pose2::new(10.0, 6.0, 0.0); // turn right in place
-        dr.predict(&delta(0.1, o0, o1));
-        dr.predict(&delta(0.2, o1, o2));
+        dr.predict(&delta(0.1, o0, o1)).unwrap();
+        dr.predict(&delta(0.2, o1, o2)).unwrap();
         let e = dr.estimate();
         assert!((e.pose.x - 2.0).abs() < 1e-12);
         assert!((e.pose.y - 2.0).abs() < 1e-12);
@@ -161,8 +164,8 @@ mod tests {
         let mut dr = DeadReckoning::new("dr", Pose2::default());
         let a = Pose2::new(0.0, 0.0, 0.0);
         let b = Pose2::new(3.0, 4.0, 0.0);
-        dr.predict(&delta(1.0, a, b));
-        dr.predict(&delta(1.0, a, b));
+        dr.predict(&delta(1.0, a, b)).unwrap();
+        dr.predict(&delta(1.0, a, b)).unwrap();
         assert!((dr.distance() - 5.0).abs() < 1e-12);
         assert!((dr.estimate().pose.x - 3.0).abs() < 1e-12);
     }

@@ -29,7 +29,7 @@
 //! singular or non-finite innovation covariance are skipped and counted in [`SlamIssues`].
 
 use crate::covariance_monitor::{CovarianceMonitor, MonitorParams};
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::OdometryMotionModel;
 use atrium_robots::{normalize_angle, LandmarkDetections, Pose2, Reading};
 use nalgebra::{DMatrix, Matrix3};
@@ -832,14 +832,16 @@ impl Localizer for EkfSlam {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         self.predict_odometry(delta.stamp, &delta.from, &delta.to);
+        Ok(())
     }
 
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         if let Reading::Landmarks(d) = reading {
             self.update_detections(d);
         }
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
@@ -856,6 +858,12 @@ impl Localizer for EkfSlam {
         }
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for EkfSlam {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
     }

@@ -24,7 +24,7 @@
 pub mod align;
 
 use crate::error::LocalizationError;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use align::{AlignParams, ScanPoints};
 use atrium_robots::node_route::Leg;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
@@ -729,9 +729,9 @@ impl Localizer for LandmarkFilter {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         if !delta.from.is_finite() || !delta.to.is_finite() {
-            return;
+            return Ok(());
         }
         let step = delta.from.between(&delta.to);
         self.pose = self.pose.compose(&step);
@@ -745,16 +745,19 @@ impl Localizer for LandmarkFilter {
                 self.arrive(false, None);
             }
         }
+        Ok(())
     }
 
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         let Reading::Laser(scan) = reading else {
-            return;
+            return Ok(());
         };
         if !self.params.laser.is_empty() && scan.sensor != self.params.laser {
-            return;
+            return Ok(());
         }
-        let Some(leg) = self.leg else { return };
+        let Some(leg) = self.leg else {
+            return Ok(());
+        };
         self.stamp = scan.stamp;
         let h = LandmarkSignature::from_ranges(&scan.ranges, self.params.max_range(scan.range_max));
         let model = &mut self.recursion[self.next];
@@ -769,6 +772,7 @@ impl Localizer for LandmarkFilter {
             let aligned = self.aligned_pose(scan);
             self.arrive(true, aligned);
         }
+        Ok(())
     }
 
     /// Covariance: Table I's reset fixes the position to within ρ (the verification radius)
@@ -790,6 +794,12 @@ impl Localizer for LandmarkFilter {
         }
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for LandmarkFilter {
     fn take_node_verification(&mut self) -> Option<usize> {
         self.pending.take()
     }

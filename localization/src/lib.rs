@@ -43,7 +43,7 @@ pub use landmark_filter::{
 };
 pub use likelihood_field::{LikelihoodField, LikelihoodFieldParams};
 pub use line_map::LineMap;
-pub use localizer::{Estimate, Localizer, OdometryDelta};
+pub use localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
 pub use resampling::{low_variance_indices, low_variance_indices_with_offset};

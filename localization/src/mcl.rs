@@ -5,7 +5,7 @@
 use crate::error::LocalizationError;
 use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
 use crate::resampling::low_variance_indices;
@@ -709,25 +709,27 @@ impl Localizer for Mcl {
     }
 
     /// Accumulates odometry; the motion model runs just before the next sensor update.
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// Laser scans only; odometry readings are ignored because odometry arrives through
     /// `predict` (using both would count it twice).
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         let Reading::Laser(scan) = reading else {
-            return;
+            return Ok(());
         };
         self.stamp = self.stamp.max(scan.stamp);
         let moved = self.pending.x.hypot(self.pending.y) >= self.params.update_min_d
             || self.pending.theta.abs() >= self.params.update_min_a;
         if self.updated_once && !moved {
-            return;
+            return Ok(());
         }
         self.updated_once = true;
         self.apply_motion();
         self.sensor_update(scan);
+        Ok(())
     }
 
     /// The weighted mean at the last sensor update, moved by the odometry received since,
@@ -736,6 +738,12 @@ impl Localizer for Mcl {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for Mcl {
     fn observation_fit(&self) -> Option<f64> {
         self.fit.fit()
     }

@@ -23,7 +23,7 @@
 
 use crate::ceiling_mcl::sample_initial_belief;
 use crate::error::LocalizationError;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::omni_map::OmniMap;
@@ -331,18 +331,19 @@ impl Localizer for OmniMcl {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
     /// one is counted in [`OmniMcl::rejected`].
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         let Reading::Intensity(img) = reading else {
-            return;
+            return Ok(());
         };
         if img.sensor != self.params.sensor {
-            return;
+            return Ok(());
         }
         match self.check(img).and_then(|()| self.observe(&img.pixels)) {
             Ok(()) => self.stamp = self.stamp.max(img.stamp),
@@ -351,12 +352,19 @@ impl Localizer for OmniMcl {
                 self.last_error = Some(e);
             }
         }
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for OmniMcl {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
     }
@@ -504,10 +512,12 @@ mod tests {
                 stamp: k as f64,
                 from: odo,
                 to: next,
-            });
+            })
+            .unwrap();
             odo = next;
             let t = truth[k];
-            f.update(&reading(panorama(t.x, t.y, t.theta, 64, 4), k as f64));
+            f.update(&reading(panorama(t.x, t.y, t.theta, 64, 4), k as f64))
+                .unwrap();
             let e = f.estimate().pose;
             errs.push(e.distance(&t));
             headings.push(e.heading_error(&t).to_degrees());
@@ -559,16 +569,16 @@ mod tests {
         };
         img.width = 32;
         img.pixels.truncate(32 * 4);
-        f.update(&Reading::Intensity(img.clone()));
+        f.update(&Reading::Intensity(img.clone())).unwrap();
         assert_eq!(f.rejected(), 1);
         assert!(f.last_error().unwrap().to_string().contains("32 × 4"));
         img.width = 64;
         img.pixels = vec![f32::NAN; 64 * 4];
-        f.update(&Reading::Intensity(img.clone()));
+        f.update(&Reading::Intensity(img.clone())).unwrap();
         assert_eq!(f.rejected(), 2);
         // Another camera's images are not for this filter.
         img.sensor = "front".into();
-        f.update(&Reading::Intensity(img));
+        f.update(&Reading::Intensity(img)).unwrap();
         assert_eq!((f.rejected(), f.updates()), (2, 0));
         for bad in [
             OmniMclParams {

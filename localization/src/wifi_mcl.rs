@@ -22,7 +22,7 @@
 
 use crate::error::LocalizationError;
 use crate::free_space::FreeSpace;
-use crate::localizer::{Estimate, Localizer, OdometryDelta};
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
@@ -510,24 +510,32 @@ impl Localizer for WifiMcl {
         &self.name
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) {
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        Ok(())
     }
 
     /// WiFi scans only (odometry arrives through `predict`).
-    fn update(&mut self, reading: &Reading) {
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         let Reading::Wifi(scan) = reading else {
-            return;
+            return Ok(());
         };
         self.stamp = self.stamp.max(scan.stamp);
         self.apply_motion();
         self.sensor_update(scan);
+        Ok(())
     }
 
     fn estimate(&self) -> Estimate {
         carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
     }
 
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for WifiMcl {
     fn observation_fit(&self) -> Option<f64> {
         self.fit.fit()
     }
@@ -654,7 +662,7 @@ mod tests {
     }
 
     fn drive(f: &mut WifiMcl, from: Pose2, to: Pose2, stamp: f64) {
-        f.predict(&OdometryDelta { stamp, from, to });
+        f.predict(&OdometryDelta { stamp, from, to }).unwrap();
     }
 
     #[test]
@@ -674,7 +682,7 @@ mod tests {
             // Odometry claims 4 m north: through the north wall (y = 20) and beyond the grid.
             let a = Pose2::new(0.0, 0.0, 0.0);
             drive(&mut f, a, Pose2::new(4.0, 0.0, 0.0), 1.0);
-            f.update(&scan(&aps, [10.0, 19.0], None));
+            f.update(&scan(&aps, [10.0, 19.0], None)).unwrap();
             f
         };
         let f = run(true);
@@ -713,7 +721,7 @@ mod tests {
             }
         }
         drive(&mut f, Pose2::default(), Pose2::new(1.0, 0.0, 0.0), 1.0);
-        f.update(&scan(&aps, [10.0, 18.0], None));
+        f.update(&scan(&aps, [10.0, 18.0], None)).unwrap();
         // The wall-side half went through the outer wall and is gone after resampling; the
         // other half moved freely to y = 11.
         assert!(
@@ -744,7 +752,7 @@ mod tests {
         assert_eq!(f.particle_count(), 30000);
         let truth = [6.0, 13.0];
         for _ in 0..3 {
-            f.update(&scan(&aps, truth, None));
+            f.update(&scan(&aps, truth, None)).unwrap();
         }
         let e = f.estimate().pose;
         assert_eq!(f.particle_count(), 2000);
@@ -803,7 +811,7 @@ mod tests {
             )
             .unwrap();
             for _ in 0..3 {
-                f.update(&strong(scan(&aps, truth, None)));
+                f.update(&strong(scan(&aps, truth, None))).unwrap();
             }
             let e = f.estimate().pose;
             (e.x, f.log_likelihood_and_untrained(e.x, e.y).1)

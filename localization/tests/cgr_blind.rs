@@ -42,9 +42,10 @@ fn blind_cgr_estimate_follows_odometry() {
             stamp: k as f64 * 0.1,
             from: odo,
             to: next,
-        });
+        })
+        .unwrap();
         odo = next;
-        cgr.update(&empty_scan(k as f64 * 0.1));
+        cgr.update(&empty_scan(k as f64 * 0.1)).unwrap();
         let est = cgr.estimate().pose;
         // Noise-free motion model: the estimate is the odometry itself.
         assert!(

@@ -60,7 +60,7 @@ fn estimate_after_stray_returns(min_points: usize) -> Pose2 {
     .unwrap();
     let before = c.estimate().pose;
     assert!(before.y.abs() < 0.2, "{before:?}");
-    c.update(&stray_scan());
+    c.update(&stray_scan()).unwrap();
     c.estimate().pose
 }
 

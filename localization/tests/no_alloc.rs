@@ -93,9 +93,10 @@ fn predict_and_update_do_not_allocate() {
             stamp: k as f64,
             from: odom,
             to: next,
-        });
+        })
+        .unwrap();
         odom = next;
-        mcl.update(&scan);
+        mcl.update(&scan).unwrap();
         std::hint::black_box(mcl.estimate());
     }
     assert_eq!(allocations() - before, 0);

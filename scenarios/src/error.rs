@@ -13,6 +13,15 @@ pub enum ScenarioError {
         field: String,
         msg: String,
     },
+    /// A localizer failed during a run (a process localizer that died, hung or answered
+    /// garbage).
+    #[error("localizer {name:?} failed on the {reading} reading at t = {t:.3} s: {msg}")]
+    Localizer {
+        name: String,
+        reading: String,
+        t: f64,
+        msg: String,
+    },
     #[error(transparent)]
     World(#[from] atrium_worlds::WorldError),
     #[error(transparent)]

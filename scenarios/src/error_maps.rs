@@ -37,7 +37,7 @@ pub fn accumulate(map: &mut ErrorMap, result: &RunResult) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::runner::{run_scenario, RunOptions};
+    use crate::{run_scenario, RunOptions};
 
     #[test]
     fn a_run_fills_the_cells_it_drove_through() {

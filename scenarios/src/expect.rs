@@ -19,16 +19,9 @@
 use crate::error::ScenarioError;
 use crate::metrics::LocalizerMetrics;
 use crate::scenario::Scenario;
-use serde::Serialize;
+pub use crate::verdict::{Bound, ExpectationResult};
 
 const STATS: [&str; 6] = ["min", "median", "mean", "rmse", "p95", "max"];
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Bound {
-    Max,
-    Min,
-}
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum Expectation {
@@ -52,18 +45,6 @@ pub enum Expectation {
         bound: Bound,
         limit: f64,
     },
-}
-
-/// The outcome of one expectation, as reported.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ExpectationResult {
-    pub metric: String,
-    pub bound: Bound,
-    pub limit: f64,
-    /// `None` when the metric does not exist for this run (never converged, region never
-    /// visited, ...): that fails the expectation.
-    pub value: Option<f64>,
-    pub passed: bool,
 }
 
 /// What a metric path resolves against.

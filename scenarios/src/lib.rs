@@ -1,28 +1,25 @@
-//! Scenarios: the format, the runner (sim stream -> localizers -> metrics), expectations,
-//! reports (tables, JSON, SVG/PNG pictures, TUM trajectories) and benchmarks. The `atrium`
-//! binary in `main.rs` is a thin shell over this library.
+//! The harness: the scenario format, the runner (a reading stream -> localizers -> metrics),
+//! expectations, the localizer registry with Atrium's own kinds, and reports (tables, JSON,
+//! SVG/PNG pictures, TUM trajectories). Experiments, sweeps, datasets and the `atrium` CLI
+//! build on it in `atrium-experiments` and `atrium-cli`.
+//!
+//! Modules depend one way, in this order: the format (`error`, `seeds`, `scenario`,
+//! `camera_sensors`, `route_jitter`, `node_route`) → expectations (`verdict`, `metrics`,
+//! `slam`, `expect`) → `runner` → `maps` and `registry` → `builtins` and `error_maps` →
+//! reports (`report`, `output`, `plot`, `slam_plot`, `tum`).
 
-pub mod appearance_filters;
-pub mod appearance_lab;
-pub mod appearance_localizers;
-pub mod bench;
-pub mod bench_appearance;
-pub mod camera_localizers;
+pub mod builtins;
 pub mod camera_sensors;
-pub mod cgr_localizers;
-pub mod chooser_localizers;
-pub mod dataset;
-pub mod end_error;
 pub mod error;
 pub mod error_maps;
 pub mod expect;
-pub mod inspect;
-pub mod localizers;
 pub mod map_cache;
+pub mod maps;
 pub mod metrics;
-pub mod node_experiment;
+pub mod node_route;
 pub mod output;
 pub mod plot;
+pub mod registry;
 pub mod report;
 pub mod route_jitter;
 pub mod runner;
@@ -30,13 +27,20 @@ pub mod scenario;
 pub mod seeds;
 pub mod slam;
 pub mod slam_plot;
-pub mod sweep;
 pub mod tum;
-pub mod wifi_training;
+pub mod verdict;
 
+pub use atrium_localization::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use error::ScenarioError;
-pub use runner::{run_scenario, RunOptions, RunResult};
+pub use registry::{BuildContext, LocalizerFactory, LocalizerRegistry, RegistryError};
+pub use runner::{run_localizers, RunOptions, RunResult};
 pub use scenario::Scenario;
+
+/// Runs `scenario` with Atrium's built-in localizer kinds (see
+/// [`LocalizerRegistry::with_builtins`]; a user's kinds: [`LocalizerRegistry::run`]).
+pub fn run_scenario(scenario: &Scenario, options: RunOptions) -> Result<RunResult, ScenarioError> {
+    LocalizerRegistry::with_builtins().run(scenario, options)
+}
 
 /// The folder holding the bundled scenarios (`scenarios/` of the source tree).
 pub fn bundled_scenarios_dir() -> std::path::PathBuf {

@@ -5,7 +5,7 @@
 //!
 //! The registry holds only weak references, keyed by the full text of what the value depends
 //! on (never a hash, so a key cannot collide): a value lives as long as some
-//! [`crate::localizers::SharedMaps`] holds it. A sweep keeps the maps of every cell it has
+//! `SharedMaps` (the `maps` module) holds it. A sweep keeps the maps of every cell it has
 //! trials left for alive, so its trials build nothing; a lone run builds and frees its own.
 //! A hit returns exactly what a rebuild would, so no result depends on the cache.
 

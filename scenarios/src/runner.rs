@@ -3,11 +3,10 @@
 
 use crate::error::ScenarioError;
 use crate::expect::{self, ExpectationResult, MetricSource};
-use crate::localizers::{build_localizer, SharedMaps};
 use crate::metrics::{self, LocalizerMetrics, Sample};
 use crate::scenario::{Event, Scenario};
 use crate::seeds::derive_seed;
-use atrium_localization::{Estimate, OdometryDelta};
+use atrium_localization::{Estimate, Localizer, LocalizerError, OdometryDelta};
 use atrium_robots::{Pose2, Reading};
 use atrium_sim::Simulation;
 use serde::Serialize;
@@ -275,29 +274,33 @@ impl ReadingStream for SimStream<'_> {
     }
 }
 
-/// Runs a scenario to the end and scores every localizer.
-pub fn run_scenario(scenario: &Scenario, options: RunOptions) -> Result<RunResult, ScenarioError> {
-    let seed = options.seed.unwrap_or(scenario.seed);
-    let mut stream = SimStream::new(scenario, seed)?;
-    run_stream(scenario, seed, &mut stream, &scenario.events, options)
-}
-
 /// The consumption and scoring loop: every reading of `stream` goes to every localizer of
-/// `scenario` (built with seeds derived from `seed`), each scoring instant is scored against
-/// the stream's ground truth, and the expectations are checked. `events` are the events the
-/// stream's run went through (their times anchor the recovery metrics).
-pub fn run_stream(
+/// `localizers` (built for `scenario`'s `[[localizers]]` entries, in order, e.g. by the
+/// localizer registry), each scoring instant is scored against the stream's ground truth, and
+/// the expectations are checked. `events` are the events the stream's run went through (their
+/// times anchor the recovery metrics). A localizer that fails ends the run with an error
+/// naming it, the reading and the instant.
+pub fn run_localizers(
     scenario: &Scenario,
     seed: u64,
     stream: &mut dyn ReadingStream,
     events: &[Event],
+    mut localizers: Vec<Box<dyn Localizer>>,
     mut options: RunOptions,
 ) -> Result<RunResult, ScenarioError> {
     let started = Instant::now();
-    let mut maps = SharedMaps::default();
-    let mut localizers = Vec::with_capacity(scenario.localizers.len());
-    for spec in &scenario.localizers {
-        localizers.push(build_localizer(spec, scenario, &mut maps, seed)?);
+    // Checked before the run, so a typo in `[expect]` costs no simulation.
+    let expectations = expect::parse_expectations(scenario)?;
+    if localizers.len() != scenario.localizers.len() {
+        return Err(ScenarioError::field(
+            &scenario.file,
+            "localizers",
+            format!(
+                "{} localizers were built for {} [[localizers]] entries",
+                localizers.len(),
+                scenario.localizers.len()
+            ),
+        ));
     }
     let n = localizers.len();
     let mut trajectories: Vec<Vec<(f64, Pose2)>> = vec![Vec::new(); n];
@@ -322,7 +325,8 @@ pub fn run_stream(
                         };
                         for (l, c) in localizers.iter_mut().zip(cpu.iter_mut()) {
                             let t1 = Instant::now();
-                            l.predict(&delta);
+                            l.predict(&delta)
+                                .map_err(|e| failed(l.as_ref(), "odometry", o.stamp, e))?;
                             *c += t1.elapsed().as_secs_f64();
                         }
                     }
@@ -331,7 +335,9 @@ pub fn run_stream(
                 other => {
                     for (l, c) in localizers.iter_mut().zip(cpu.iter_mut()) {
                         let t1 = Instant::now();
-                        l.update(other);
+                        l.update(other).map_err(|e| {
+                            failed(l.as_ref(), reading_kind(other), other.stamp(), e)
+                        })?;
                         *c += t1.elapsed().as_secs_f64();
                     }
                 }
@@ -340,7 +346,8 @@ pub fn run_stream(
 
         // Closes the loop of a node route: the robot stops at a node the landmark verified.
         for l in localizers.iter_mut() {
-            if let Some(node) = l.take_node_verification() {
+            let verified = l.capabilities().and_then(|c| c.take_node_verification());
+            if let Some(node) = verified {
                 // The controller steers on the localizer's pose after its reset (002
                 // Algorithm 1 line 14), not on a separate copy that kept the old offsets.
                 stream.verify_node(node, l.estimate().pose);
@@ -383,7 +390,6 @@ pub fn run_stream(
     }
     let summary = stream.summary();
 
-    let expectations = expect::parse_expectations(scenario)?;
     let mut runs: Vec<LocalizerRun> = Vec::with_capacity(n);
     for (i, spec) in scenario.localizers.iter().enumerate() {
         let metrics = metrics::score(
@@ -414,8 +420,8 @@ pub fn run_stream(
             expectations: Vec::new(),
             passed: true,
             cpu_s: cpu[i],
-            slam: crate::slam::SlamRun::of(localizers[i].as_ref(), scenario),
-            node_events: crate::node_experiment::node_events(localizers[i].as_ref()),
+            slam: crate::slam::SlamRun::of(localizers[i].as_mut(), scenario),
+            node_events: crate::node_route::node_events(localizers[i].as_mut()),
         });
     }
     for i in 0..runs.len() {
@@ -482,4 +488,28 @@ pub fn run_stream(
         },
         localizers: runs,
     })
+}
+
+/// A localizer's failure as a run error: which localizer, on which reading, at what time.
+fn failed(l: &dyn Localizer, reading: &str, t: f64, e: LocalizerError) -> ScenarioError {
+    ScenarioError::Localizer {
+        name: l.name().to_string(),
+        reading: reading.to_string(),
+        t,
+        msg: e.0,
+    }
+}
+
+/// The name of a reading's kind in messages and protocols.
+pub fn reading_kind(r: &Reading) -> &'static str {
+    match r {
+        Reading::Odometry(_) => "odometry",
+        Reading::Laser(_) => "laser",
+        Reading::Depth(_) => "depth",
+        Reading::Wifi(_) => "wifi",
+        Reading::Landmarks(_) => "landmarks",
+        Reading::Intensity(_) => "intensity",
+        Reading::Disparity(_) => "disparity",
+        _ => "other",
+    }
 }

@@ -20,9 +20,9 @@
 //! ```
 
 use crate::error::ScenarioError;
-use crate::expect::{Bound, ExpectationResult};
 use crate::metrics::Sample;
 use crate::scenario::Scenario;
+use crate::verdict::{Bound, ExpectationResult};
 use atrium_localization::covariance_monitor::{MonitorReport, MonitorStep};
 use atrium_localization::ekf_slam::{EkfSlam, SlamIssues, SlamSnapshot};
 use atrium_localization::Localizer;
@@ -82,8 +82,11 @@ pub struct SlamRun {
 impl SlamRun {
     /// The report of `localizer` if it is an [`EkfSlam`]; pillars come from the scenario's
     /// world.
-    pub fn of(localizer: &dyn Localizer, scenario: &Scenario) -> Option<SlamRun> {
-        let slam = localizer.as_any()?.downcast_ref::<EkfSlam>()?;
+    pub fn of(localizer: &mut dyn Localizer, scenario: &Scenario) -> Option<SlamRun> {
+        let slam = localizer
+            .capabilities()?
+            .as_any()?
+            .downcast_ref::<EkfSlam>()?;
         let pillars = &scenario.world.pillars;
         let p = slam.covariance();
         let features = (0..slam.feature_count())

@@ -5,7 +5,8 @@
 //! error; the training disparities are sparse and agree with the ground truth; EM-PCA at
 //! the paper's size (N = 100, d = 20, D = 19200, ~20 % missing) converges.
 
-use atrium_scenarios::{appearance_lab::run_experiment, Scenario};
+use atrium_experiments::appearance_lab::run_experiment;
+use atrium_scenarios::Scenario;
 
 #[test]
 fn lab_illumination_experiment() {

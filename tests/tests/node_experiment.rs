@@ -4,13 +4,15 @@
 //! landmark, errors of the order of ρ, and a clear improvement over dead reckoning on the
 //! same runs.
 
-use atrium_scenarios::{node_experiment::run_experiment, Scenario};
+use atrium_experiments::node_experiment::run_experiment;
+use atrium_scenarios::{LocalizerRegistry, Scenario};
 
 #[test]
 fn wheelchair_node_table_over_five_runs() {
     let path = atrium_scenarios::bundled_scenarios_dir().join("wheelchair_nodes.toml");
     let scenario = Scenario::load(&path).expect("the bundled scenario loads");
-    let exp = run_experiment(&scenario, None).expect("the experiment runs");
+    let exp = run_experiment(&LocalizerRegistry::with_builtins(), &scenario, None)
+        .expect("the experiment runs");
     println!("{}", exp.to_text());
     assert_eq!(exp.seeds.len(), 5);
     let filter = exp.table("filter").unwrap();

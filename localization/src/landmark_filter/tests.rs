@@ -127,9 +127,10 @@ fn a_node_is_not_verified_outside_rho_nor_during_the_warmup() {
     // the landmark perfectly, yet the node is not verified.
     let p0 = Pose2::default();
     let p1 = Pose2::new(4.5, 0.0, 0.0);
-    f.predict(&odo(1.0, p0, p1));
+    f.predict(&odo(1.0, p0, p1)).unwrap();
     for k in 0..20 {
-        f.update(&scan(1.0 + 0.1 * k as f64, landmark.clone()));
+        f.update(&scan(1.0 + 0.1 * k as f64, landmark.clone()))
+            .unwrap();
     }
     assert!(f.gamma() < 1e-3, "γ {}", f.gamma());
     assert_eq!(f.next_node(), 0);
@@ -137,8 +138,8 @@ fn a_node_is_not_verified_outside_rho_nor_during_the_warmup() {
     assert_eq!(f.take_node_verification(), None);
     // Inside ρ (0.2 m from the node), with matching scans: verified, pose reset to the node.
     let p2 = Pose2::new(4.8, 0.01, 0.02);
-    f.predict(&odo(3.0, p1, p2));
-    f.update(&scan(3.1, landmark.clone()));
+    f.predict(&odo(3.0, p1, p2)).unwrap();
+    f.update(&scan(3.1, landmark.clone())).unwrap();
     assert_eq!(f.next_node(), 1);
     assert_eq!(f.take_node_verification(), Some(0));
     assert_eq!(f.take_node_verification(), None, "taken once");
@@ -155,10 +156,10 @@ fn a_node_is_not_verified_outside_rho_nor_during_the_warmup() {
     };
     let mut f = LandmarkFilter::new("lf", params, models, Pose2::default(), 0.05).unwrap();
     for k in 0..5 {
-        f.update(&scan(0.1 * k as f64, landmark.clone()));
+        f.update(&scan(0.1 * k as f64, landmark.clone())).unwrap();
         assert_eq!(f.next_node(), 0, "verified during warm-up at scan {k}");
     }
-    f.update(&scan(0.6, landmark.clone()));
+    f.update(&scan(0.6, landmark.clone())).unwrap();
     assert_eq!(f.next_node(), 1);
 }
 
@@ -174,13 +175,15 @@ fn a_different_landmark_is_not_verified_and_odometry_reaches_the_node() {
     };
     let mut f = LandmarkFilter::new("lf", params, models, Pose2::default(), 0.05).unwrap();
     let p1 = Pose2::new(4.9, 0.0, 0.0);
-    f.predict(&odo(1.0, Pose2::default(), p1));
+    f.predict(&odo(1.0, Pose2::default(), p1)).unwrap();
     for k in 0..10 {
-        f.update(&scan(1.0 + 0.1 * k as f64, ranges(60, 2.0, 5.0)));
+        f.update(&scan(1.0 + 0.1 * k as f64, ranges(60, 2.0, 5.0)))
+            .unwrap();
     }
     assert_eq!(f.next_node(), 0, "γ {}", f.gamma());
     // Table I moveTo: within γ_d of the node by odometry, update() without verification.
-    f.predict(&odo(3.0, p1, Pose2::new(4.97, 0.0, 0.0)));
+    f.predict(&odo(3.0, p1, Pose2::new(4.97, 0.0, 0.0)))
+        .unwrap();
     assert_eq!(f.next_node(), 1);
     assert_eq!(f.take_node_verification(), None);
     assert!(!f.events()[0].verified);

@@ -146,10 +146,11 @@ fn drive(mcl: &mut Mcl, grid: &OccupancyGrid, truth: &[Pose2], seed: u64) -> Vec
             stamp,
             from: odom,
             to: next,
-        });
+        })
+        .unwrap();
         odom = next;
         let scan = simulate_scan(grid, &pair[1], stamp, &mut rng);
-        mcl.update(&Reading::Laser(scan));
+        mcl.update(&Reading::Laser(scan)).unwrap();
         errors.push(mcl.estimate().pose.distance(&pair[1]));
     }
     errors
@@ -395,16 +396,19 @@ fn pending_odometry_moves_the_estimate_and_min_distance_skips_updates() {
     let mut mcl = Mcl::new("mcl", params, &grid, init, 4).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(4);
     // The first scan is always used.
-    mcl.update(&Reading::Laser(simulate_scan(&grid, &pose, 0.0, &mut rng)));
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &pose, 0.0, &mut rng)))
+        .unwrap();
     let snapshot: Vec<(Pose2, f64)> = mcl.particles().collect();
     // 0.2 m forward in odometry: below update_min_d.
     mcl.predict(&OdometryDelta {
         stamp: 0.1,
         from: Pose2::new(0.0, 0.0, 0.0),
         to: Pose2::new(0.2, 0.0, 0.0),
-    });
+    })
+    .unwrap();
     let moved = Pose2::new(2.0, 2.2, FRAC_PI_2);
-    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.1, &mut rng)));
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.1, &mut rng)))
+        .unwrap();
     let now: Vec<(Pose2, f64)> = mcl.particles().collect();
     assert_eq!(
         snapshot, now,
@@ -432,9 +436,11 @@ fn pending_odometry_moves_the_estimate_and_min_distance_skips_updates() {
         stamp: 0.2,
         from: Pose2::new(0.2, 0.0, 0.0),
         to: Pose2::new(0.6, 0.0, 0.0),
-    });
+    })
+    .unwrap();
     let moved = Pose2::new(2.0, 2.6, FRAC_PI_2);
-    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.2, &mut rng)));
+    mcl.update(&Reading::Laser(simulate_scan(&grid, &moved, 0.2, &mut rng)))
+        .unwrap();
     let now: Vec<(Pose2, f64)> = mcl.particles().collect();
     assert_ne!(snapshot, now);
     assert!(mcl.estimate().pose.distance(&moved) < 0.1);

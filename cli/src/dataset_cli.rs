@@ -1,0 +1,137 @@
+//! The `record` and `replay` subcommands of `atrium` (the binary parses the arguments and
+//! calls these). Errors are bad input (exit 2); `Ok(false)` means expectations not met.
+
+use atrium_experiments::dataset::{record, replay, ReplayOptions};
+use atrium_scenarios::runner::RunOptions;
+use atrium_scenarios::{output, report, LocalizerRegistry, Scenario};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+fn progress_bar(show: bool, name: &str) -> Option<indicatif::ProgressBar> {
+    show.then(|| {
+        let bar = indicatif::ProgressBar::new(1000);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(name.to_string());
+        bar
+    })
+}
+
+/// `atrium record SCENARIO -o FILE.mcap [--seed N] [--json]`: runs the scenario live, writes
+/// the recording, prints the run's report (the same as `atrium run`).
+pub fn record_command(
+    registry: &LocalizerRegistry,
+    scenario_path: &Path,
+    output: &Path,
+    seed: Option<u64>,
+    json: bool,
+) -> anyhow::Result<bool> {
+    let scenario = Scenario::load(scenario_path)?;
+    let bar = progress_bar(!json && std::io::stderr().is_terminal(), &scenario.name);
+    let mut progress = |t: f64, total: f64| {
+        if let Some(b) = &bar {
+            b.set_position((1000.0 * t / total).min(1000.0) as u64);
+        }
+    };
+    let rec = record(
+        registry,
+        &scenario,
+        output,
+        RunOptions {
+            seed,
+            progress: Some(&mut progress),
+            observer: None,
+        },
+    )?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let mb = rec.bytes as f64 / 1e6;
+    let per_min = mb / (rec.run.sim_time_s / 60.0).max(1e-9);
+    if json {
+        let mut doc = report::to_json(&rec.run);
+        if let Some(o) = doc.as_object_mut() {
+            o.insert(
+                "recording".into(),
+                serde_json::json!({
+                    "path": rec.path,
+                    "bytes": rec.bytes,
+                    "messages": rec.messages,
+                    "mb_per_sim_minute": per_min,
+                }),
+            );
+        }
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        print!("{}", report::to_text(&rec.run));
+        eprintln!(
+            "wrote {} ({:.2} MB, {} messages, {:.2} MB per simulated minute)",
+            rec.path.display(),
+            mb,
+            rec.messages,
+            per_min
+        );
+    }
+    Ok(rec.run.passed())
+}
+
+/// Parses `NAME=KIND` (or just `KIND`, named after its kind).
+pub fn parse_localizer(s: &str) -> Result<(String, String), String> {
+    let (name, kind) = match s.split_once('=') {
+        Some((n, k)) => (n.trim(), k.trim()),
+        None => (s.trim(), s.trim()),
+    };
+    if name.is_empty() || kind.is_empty() {
+        return Err(format!("--localizer {s:?}: expected NAME=KIND or KIND"));
+    }
+    Ok((name.to_string(), kind.to_string()))
+}
+
+/// `atrium replay FILE.mcap [--scenario S] [--localizer NAME=KIND]... [--json] [--out DIR]`.
+pub fn replay_command(
+    registry: &LocalizerRegistry,
+    file: &Path,
+    scenario: Option<PathBuf>,
+    localizers: Vec<(String, String)>,
+    json: bool,
+    out: Option<PathBuf>,
+) -> anyhow::Result<bool> {
+    let bar = progress_bar(!json && std::io::stderr().is_terminal(), "replay");
+    let mut progress = |t: f64, total: f64| {
+        if let Some(b) = &bar {
+            b.set_position((1000.0 * t / total).min(1000.0) as u64);
+        }
+    };
+    let r = replay(
+        file,
+        ReplayOptions {
+            scenario,
+            localizers,
+            progress: Some(&mut progress),
+            registry: Some(registry),
+        },
+    )?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    if let Some(dir) = &out {
+        let written =
+            output::write_run(dir, &r.scenario.world, &r.run).map_err(anyhow::Error::msg)?;
+        if !json {
+            eprintln!("wrote {} files to {}", written.len(), dir.display());
+        }
+    }
+    if json {
+        let mut doc = report::to_json(&r.run);
+        if let Some(o) = doc.as_object_mut() {
+            o.insert("recording".into(), serde_json::json!(file));
+        }
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        println!("replay of {}", file.display());
+        print!("{}", report::to_text(&r.run));
+    }
+    Ok(r.run.passed())
+}

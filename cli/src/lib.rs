@@ -1,0 +1,470 @@
+//! The `atrium` command-line tool. Exit status: 0 success, 1 expectations not met, 2 bad input.
+//!
+//! [`main_with`] runs the whole CLI with a given localizer registry, so a user crate whose
+//! binary calls it gets `atrium run`, `sweep`, `record`, `replay` and `score` for its own
+//! localizer kinds:
+//!
+//! ```no_run
+//! fn main() -> std::process::ExitCode {
+//!     let mut registry = atrium_scenarios::LocalizerRegistry::with_builtins();
+//!     // registry.register("mine", my_factory).unwrap();
+//!     atrium_cli::main_with(registry)
+//! }
+//! ```
+
+mod dataset_cli;
+mod score_cli;
+
+use anyhow::Context;
+use atrium_experiments::{bench, inspect};
+use atrium_scenarios::{output, report, LocalizerRegistry, RunOptions, Scenario};
+use clap::{Parser, Subcommand};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "atrium",
+    version,
+    about = "Physics-based test harness for mobile-robot localization"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scenario's illumination experiment (000 §VII, `[appearance_experiment]`) and
+    /// print the sensor-model errors per lighting and feature set; exit 1 if a claim fails.
+    Appearance {
+        scenario: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run a node-route scenario several times and print its node-error table (Table II of
+    /// 002): per node and run, mm, for the landmark filter and every other localizer.
+    Nodes {
+        scenario: PathBuf,
+        /// Number of runs (seeds seed, seed+1, ...); default: `[node_experiment] runs`.
+        #[arg(long)]
+        runs: Option<usize>,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run a scenario and score every localizer against ground truth.
+    Run {
+        scenario: PathBuf,
+        /// Replace the scenario's seed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Print one JSON document instead of tables.
+        #[arg(long)]
+        json: bool,
+        /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Show what Atrium derives from a robot or world file.
+    Inspect {
+        #[command(subcommand)]
+        what: InspectWhat,
+    },
+    /// Export the map a localizer may know.
+    Export {
+        #[command(subcommand)]
+        what: ExportWhat,
+    },
+    /// Run a scenario and record every sensor stream, ground truth and estimate to MCAP.
+    Record {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
+        /// Replace the scenario's seed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Print one JSON document (the run's report plus the recording's size).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Feed a recording to the localizers and score them against its ground truth.
+    Replay {
+        file: PathBuf,
+        /// World, map, localizers and expectations from this scenario instead of the
+        /// recording's metadata (needed for MCAP files not written by Atrium).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Run this localizer (NAME=KIND or KIND, default parameters) instead of the
+        /// scenario's; repeat for several.
+        #[arg(long = "localizer", value_parser = dataset_cli::parse_localizer)]
+        localizers: Vec<(String, String)>,
+        #[arg(long)]
+        json: bool,
+        /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Score another stack's estimates (TUM, CSV `t,x,y,theta`, or an MCAP pose topic)
+    /// against a recording's ground truth, with the same metrics, tables, expectations and
+    /// pictures as a live run.
+    Score(score_cli::ScoreArgs),
+    /// Run a parameter sweep (`atrium sweep SWEEP`) or join shard outputs
+    /// (`atrium sweep merge OUT_DIR SHARD_DIR...`).
+    Sweep(SweepArgs),
+    /// Measure whole-run throughput on this machine.
+    Bench {
+        /// all, corridor_tracking, laser, empca or sweep (`atrium bench sweep SWEEP`).
+        #[arg(default_value = "all")]
+        what: String,
+        /// sweep: the sweep file to measure.
+        sweep_file: Option<PathBuf>,
+        /// sweep: trials per cell (default: the sweep file's).
+        #[arg(long)]
+        trials: Option<usize>,
+        #[arg(long)]
+        json: bool,
+        /// empca: number of principal components d (default 20).
+        #[arg(long = "d")]
+        empca_d: Option<usize>,
+        /// empca: number of maps N (default 100).
+        #[arg(long = "n")]
+        empca_n: Option<usize>,
+        /// empca: pixels per map D (default 19200 = 160 × 120).
+        #[arg(long = "dim")]
+        empca_dim: Option<usize>,
+        /// empca: fraction of entries missing at random (default 0.2).
+        #[arg(long = "missing")]
+        empca_missing: Option<f64>,
+    },
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+struct SweepArgs {
+    #[command(subcommand)]
+    action: Option<SweepAction>,
+    /// The sweep file.
+    sweep: Option<PathBuf>,
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Run only the trials whose global index % N == I (a Slurm array or Kubernetes
+    /// indexed job runs one shard per task).
+    #[arg(long)]
+    shard: Option<String>,
+    /// Continue an interrupted sweep: skip trials already in DIR/results.csv.
+    #[arg(long)]
+    resume: bool,
+    /// Output folder (default: sweep-<sweep file stem>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum SweepAction {
+    /// Join the results of shards of one sweep into OUT_DIR.
+    Merge {
+        out_dir: PathBuf,
+        #[arg(required = true)]
+        shard_dirs: Vec<PathBuf>,
+    },
+}
+
+fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, BadInput> {
+    use atrium_experiments::sweep;
+    if let Some(SweepAction::Merge {
+        out_dir,
+        shard_dirs,
+    }) = args.action
+    {
+        let merged = sweep::merge(&out_dir, &shard_dirs)?;
+        eprintln!(
+            "merged {} rows from {} shards into {}",
+            merged.rows.len(),
+            shard_dirs.len(),
+            out_dir.display()
+        );
+        return Ok(true);
+    }
+    let file = args
+        .sweep
+        .ok_or_else(|| anyhow::anyhow!("atrium sweep: give a sweep file (or `merge`)"))?;
+    let shard = args
+        .shard
+        .as_deref()
+        .map(sweep::parse_shard)
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    let s = sweep::Sweep::load_with(&file, registry.clone())?;
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from(format!("sweep-{}", s.name)));
+    let settings = sweep::SweepSettings {
+        out,
+        jobs: args.jobs,
+        shard,
+        resume: args.resume,
+        progress: std::io::stderr().is_terminal(),
+    };
+    let o = sweep::run_sweep(&s, &settings)?;
+    eprintln!(
+        "ran {} trials ({} already recorded) in {:.1} s: {} and {}",
+        o.ran,
+        o.skipped,
+        o.wall_s,
+        o.results_csv.display(),
+        o.summary_md.display()
+    );
+    Ok(true)
+}
+
+#[derive(Subcommand)]
+enum ExportWhat {
+    /// `--format ros`: a map_server YAML plus PGM (254 free, 0 occupied, 205 unknown);
+    /// `--format vector`: one `x1,y1,x2,y2` wall-face segment per line.
+    Map {
+        world: PathBuf,
+        #[arg(long, value_parser = ["ros", "vector"])]
+        format: String,
+        #[arg(short = 'o', long = "output")]
+        output: PathBuf,
+        /// Keep glass walls in the map (a map built by a laser misses most of them).
+        #[arg(long)]
+        include_glass: bool,
+        /// Occupancy grid cell size, m (ros format).
+        #[arg(long, default_value_t = 0.05)]
+        resolution: f64,
+    },
+}
+
+#[derive(Subcommand)]
+enum InspectWhat {
+    /// Drive parameters and link mounts of a URDF.
+    Robot {
+        urdf: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Size, walls, materials and regions of a world file.
+    World {
+        world: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Errors in the input (exit 2) as opposed to expectations not met (exit 1).
+struct BadInput(anyhow::Error);
+
+impl<E: Into<anyhow::Error>> From<E> for BadInput {
+    fn from(e: E) -> Self {
+        BadInput(e.into())
+    }
+}
+
+fn print_json(v: &serde_json::Value) -> Result<(), BadInput> {
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}
+
+fn run(
+    registry: &LocalizerRegistry,
+    scenario_path: PathBuf,
+    seed: Option<u64>,
+    json: bool,
+    out: Option<PathBuf>,
+) -> Result<bool, BadInput> {
+    let scenario = Scenario::load(&scenario_path)?;
+    let show_progress = !json && std::io::stderr().is_terminal();
+    let bar = show_progress.then(|| {
+        let bar = indicatif::ProgressBar::new(1000);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(scenario.name.clone());
+        bar
+    });
+    let mut progress = |t: f64, total: f64| {
+        if let Some(b) = &bar {
+            b.set_position((1000.0 * t / total).min(1000.0) as u64);
+        }
+    };
+    let options = RunOptions {
+        seed,
+        progress: Some(&mut progress),
+        observer: None,
+    };
+    let result = registry.run(&scenario, options)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    if let Some(dir) = &out {
+        let written =
+            output::write_run(dir, &scenario.world, &result).map_err(anyhow::Error::msg)?;
+        if !json {
+            eprintln!("wrote {} files to {}", written.len(), dir.display());
+        }
+    }
+    if json {
+        print_json(&report::to_json(&result))?;
+    } else {
+        print!("{}", report::to_text(&result));
+    }
+    Ok(result.passed())
+}
+
+fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
+    match cli.command {
+        Some(Command::Nodes {
+            scenario,
+            runs,
+            json,
+        }) => {
+            let scenario = Scenario::load(&scenario)?;
+            let exp =
+                atrium_experiments::node_experiment::run_experiment(registry, &scenario, runs)?;
+            if json {
+                print_json(&serde_json::to_value(&exp)?)?;
+            } else {
+                print!("{}", exp.to_text());
+            }
+            Ok(exp.passed())
+        }
+        Some(Command::Appearance { scenario, json }) => {
+            let scenario = Scenario::load(&scenario)?;
+            let exp = atrium_experiments::appearance_lab::run_experiment(&scenario)?;
+            if json {
+                print_json(&serde_json::to_value(&exp)?)?;
+            } else {
+                print!("{}", exp.to_text());
+            }
+            Ok(exp.passed())
+        }
+        None => run(
+            registry,
+            atrium_scenarios::default_scenario(),
+            None,
+            false,
+            None,
+        ),
+        Some(Command::Run {
+            scenario,
+            seed,
+            json,
+            out,
+        }) => run(registry, scenario, seed, json, out),
+        Some(Command::Inspect {
+            what: InspectWhat::Robot { urdf, json },
+        }) => {
+            let r = atrium_robots::RobotModel::from_urdf(&urdf)?;
+            if json {
+                print_json(&inspect::robot_json(&r))?;
+            } else {
+                print!("{}", inspect::robot_text(&r));
+            }
+            Ok(true)
+        }
+        Some(Command::Inspect {
+            what: InspectWhat::World { world, json },
+        }) => {
+            let w = atrium_worlds::World::load(&world)?;
+            if json {
+                print_json(&inspect::world_json(&w))?;
+            } else {
+                print!("{}", inspect::world_text(&w));
+            }
+            Ok(true)
+        }
+        Some(Command::Export {
+            what:
+                ExportWhat::Map {
+                    world,
+                    format,
+                    output,
+                    include_glass,
+                    resolution,
+                },
+        }) => {
+            let w = atrium_worlds::World::load(&world)?;
+            let written = output::export_map(&w, &format, &output, include_glass, resolution)
+                .map_err(anyhow::Error::msg)?;
+            for p in written {
+                eprintln!("wrote {}", p.display());
+            }
+            Ok(true)
+        }
+        Some(Command::Record {
+            scenario,
+            output,
+            seed,
+            json,
+        }) => Ok(dataset_cli::record_command(
+            registry, &scenario, &output, seed, json,
+        )?),
+        Some(Command::Replay {
+            file,
+            scenario,
+            localizers,
+            json,
+            out,
+        }) => Ok(dataset_cli::replay_command(
+            registry, &file, scenario, localizers, json, out,
+        )?),
+        Some(Command::Score(args)) => Ok(score_cli::score_command(args)?),
+        Some(Command::Sweep(args)) => sweep_command(registry, args),
+        Some(Command::Bench {
+            what,
+            sweep_file,
+            trials,
+            json,
+            empca_d,
+            empca_n,
+            empca_dim,
+            empca_missing,
+        }) => {
+            let doc = if what == "sweep" {
+                let file = sweep_file.ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "atrium bench sweep: give a sweep file (atrium bench sweep SWEEP)"
+                    )
+                })?;
+                atrium_experiments::sweep::bench::run(&file, trials).map_err(|e| e.to_string())
+            } else if what == "empca" {
+                let base = atrium_experiments::bench_appearance::EmPcaBench::default();
+                let b = atrium_experiments::bench_appearance::EmPcaBench {
+                    d: empca_d.unwrap_or(base.d),
+                    n: empca_n.unwrap_or(base.n),
+                    dim: empca_dim.unwrap_or(base.dim),
+                    missing: empca_missing.unwrap_or(base.missing),
+                    ..base
+                };
+                atrium_experiments::bench_appearance::empca(&b)
+            } else {
+                bench::run(&what)
+            }
+            .map_err(anyhow::Error::msg)
+            .context("atrium bench")?;
+            if json {
+                print_json(&doc)?;
+            } else {
+                println!("{}", serde_json::to_string_pretty(&doc)?);
+            }
+            Ok(true)
+        }
+    }
+}
+
+/// Parses the command line and runs `atrium` with the localizer kinds of `registry`.
+pub fn main_with(registry: LocalizerRegistry) -> ExitCode {
+    let cli = Cli::parse();
+    match main_inner(&registry, cli) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        Err(BadInput(e)) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

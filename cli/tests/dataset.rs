@@ -1,0 +1,391 @@
+//! Datasets: MCAP recording read back with the `mcap` crate (schemas, counts, metadata),
+//! replay equals live, bad files refused cleanly by the CLI (exit 2), `replay --out` TUM
+//! files, and the exported occupancy map against the world's free space.
+
+mod common;
+
+use atrium_experiments::dataset::{self, replay::Recording, ReplayOptions};
+use atrium_scenarios::{output, report, run_scenario, RunOptions, Scenario};
+use common::{atrium, tmpdir};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A bundled scenario with its duration cut to `duration_s` (kept beside the bundled file so
+/// its relative paths resolve).
+fn bundled_short(name: &str, duration_s: f64) -> Scenario {
+    let path = atrium_scenarios::bundled_scenarios_dir().join(format!("{name}.toml"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut table: toml::Table = text.parse().unwrap();
+    table.insert("duration_s".into(), toml::Value::Float(duration_s));
+    Scenario::from_toml_str(&toml::to_string(&table).unwrap(), &path).unwrap()
+}
+
+/// The report without its wall-clock part.
+fn results(r: &atrium_scenarios::RunResult) -> serde_json::Value {
+    let mut v = report::to_json(r);
+    v.as_object_mut().unwrap().remove("timing");
+    v
+}
+
+#[test]
+fn recording_reads_back_with_expected_schemas_counts_and_metadata() {
+    let dir = tmpdir("roundtrip");
+    let scenario = bundled_short("corridor_tracking", 10.0);
+    let out = dir.join("corridor.mcap");
+    let rec = dataset::record(
+        &atrium_scenarios::LocalizerRegistry::with_builtins(),
+        &scenario,
+        &out,
+        RunOptions::default(),
+    )
+    .unwrap();
+    assert!(out.exists());
+    // No temporary left behind.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+
+    let bytes = std::fs::read(&out).unwrap();
+    let mut counts: BTreeMap<String, (String, String, usize)> = BTreeMap::new();
+    let mut last_time = 0;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        assert!(m.log_time >= last_time, "log times must not go back");
+        last_time = m.log_time;
+        let schema = m.channel.schema.as_ref().map(|s| s.name.clone()).unwrap();
+        let e = counts.entry(m.channel.topic.clone()).or_insert((
+            schema,
+            m.channel.message_encoding.clone(),
+            0,
+        ));
+        e.2 += 1;
+    }
+    // 10 s at 200 Hz: odometry at 50 Hz, laser at 10 Hz, scoring at eval_hz = 10 Hz.
+    let want: &[(&str, &str, &str, usize)] = &[
+        ("/odom", "foxglove.PoseInFrame", "protobuf", 500),
+        ("/odom/wheels", "atrium.WheelOdometry", "json", 500),
+        ("/scan/laser", "foxglove.LaserScan", "protobuf", 100),
+        ("/ground_truth", "foxglove.PoseInFrame", "protobuf", 100),
+        ("/atrium/score", "atrium.ScoringInstant", "json", 100),
+        ("/estimate/mcl", "foxglove.PoseInFrame", "protobuf", 100),
+        (
+            "/estimate/odometry",
+            "foxglove.PoseInFrame",
+            "protobuf",
+            100,
+        ),
+        ("/scene", "foxglove.SceneUpdate", "protobuf", 1),
+        // The URDF's links once, then odom and map frames at every odometry reading.
+        ("/tf", "foxglove.FrameTransforms", "protobuf", 501),
+    ];
+    for (topic, schema, encoding, n) in want {
+        let got = counts
+            .get(*topic)
+            .unwrap_or_else(|| panic!("{topic} missing: {counts:?}"));
+        assert_eq!(
+            (got.0.as_str(), got.1.as_str(), got.2),
+            (*schema, *encoding, *n),
+            "{topic}"
+        );
+    }
+    // Sensors the robot's sensor file adds (WiFi, depth, landmarks) have their own schemas.
+    for (topic, (schema, encoding, n)) in &counts {
+        if want.iter().any(|w| w.0 == topic) {
+            continue;
+        }
+        let expected = [
+            ("/wifi/", "atrium.WifiScan", "json"),
+            ("/depth/", "foxglove.RawImage", "protobuf"),
+            ("/landmarks/", "atrium.LandmarkDetections", "json"),
+            ("/scan/", "foxglove.LaserScan", "protobuf"),
+        ]
+        .into_iter()
+        .find(|(prefix, _, _)| topic.starts_with(prefix))
+        .unwrap_or_else(|| panic!("unexpected topic {topic}"));
+        assert_eq!(
+            (schema.as_str(), encoding.as_str()),
+            (expected.1, expected.2)
+        );
+        assert!(*n > 0);
+    }
+    let total: usize = counts.values().map(|c| c.2).sum();
+    assert_eq!(total as u64, rec.messages);
+
+    // Chunks are zstd-compressed; metadata holds scenario text, seed and version.
+    let mut chunks = 0;
+    let mut meta = BTreeMap::new();
+    for r in mcap::read::LinearReader::new(&bytes).unwrap() {
+        match r.unwrap() {
+            mcap::records::Record::Chunk { header, .. } => {
+                assert_eq!(header.compression, "zstd");
+                chunks += 1;
+            }
+            mcap::records::Record::Metadata(m) => {
+                meta.insert(m.name.clone(), m.metadata);
+            }
+            _ => {}
+        }
+    }
+    assert!(chunks > 0);
+    let a = &meta["atrium"];
+    assert_eq!(a["scenario"], scenario.text);
+    assert_eq!(a["seed"], "1");
+    assert_eq!(a["atrium_version"], env!("CARGO_PKG_VERSION"));
+    let summary = &meta["atrium.summary"];
+    assert_eq!(summary["physics_steps"], "2000");
+
+    // Decoded, a scan carries the live ranges exactly.
+    let scan = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .find(|m| m.channel.topic == "/scan/laser")
+        .unwrap();
+    use foxglove::Decode;
+    let msg = foxglove::messages::LaserScan::decode(&scan.data[..]).unwrap();
+    assert_eq!(msg.ranges.len(), scenario.lasers[0].beams);
+    assert_eq!(msg.frame_id, scenario.lasers[0].mount);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn replay_equals_live_with_the_same_seed() {
+    // The kidnapped scenario (an event, two localizers, random injection) cut to 20 s: the
+    // kidnapping at 8 s is inside.
+    let scenario = bundled_short("kidnapped", 20.0);
+    let live = run_scenario(&scenario, RunOptions::default()).unwrap();
+    let dir = tmpdir("replay");
+    let out = dir.join("kidnapped.mcap");
+    let rec = dataset::record(
+        &atrium_scenarios::LocalizerRegistry::with_builtins(),
+        &scenario,
+        &out,
+        RunOptions::default(),
+    )
+    .unwrap();
+    // Recording does not change the run.
+    assert_eq!(results(&rec.run), results(&live));
+
+    let replayed = dataset::replay(&out, ReplayOptions::default()).unwrap();
+    assert_eq!(results(&replayed.run), results(&live));
+    assert_eq!(replayed.run.events, live.events);
+    assert_eq!(replayed.run.ground_truth, live.ground_truth);
+    for (a, b) in replayed.run.localizers.iter().zip(&live.localizers) {
+        assert_eq!(a.samples, b.samples, "{}", a.name);
+        assert_eq!(a.trajectory, b.trajectory, "{}", a.name);
+    }
+    assert!(live.localizers[0].samples.len() == 200);
+
+    // The CLI: replay --json matches, and --out writes TUM trajectories.
+    let tum = dir.join("out");
+    let o = atrium(&[
+        "replay",
+        out.to_str().unwrap(),
+        "--json",
+        "--out",
+        tum.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let d = doc.as_object_mut().unwrap();
+    d.remove("timing");
+    d.remove("recording");
+    assert_eq!(doc, results(&live));
+    let gt = std::fs::read_to_string(tum.join("ground_truth.tum")).unwrap();
+    assert_eq!(gt.lines().count(), 200);
+    assert!(gt.lines().all(|l| l.split_whitespace().count() == 8));
+    assert!(tum.join("mcl.tum").exists() && tum.join("odometry.tum").exists());
+
+    // A localizer named on the command line instead of the scenario's.
+    let o = atrium(&[
+        "replay",
+        out.to_str().unwrap(),
+        "--json",
+        "--localizer",
+        "dr=dead_reckoning",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let locs = doc["localizers"].as_array().unwrap();
+    assert_eq!(locs.len(), 1);
+    assert_eq!(locs[0]["name"], "dr");
+    // Dead reckoning sees the same odometry as the scenario's `odometry` localizer.
+    let live_dr = &results(&live)["localizers"][1]["position_error"];
+    assert_eq!(&locs[0]["position_error"], live_dr);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn write_mcap(path: &Path, topic: &str, schema: &str, encoding: &str) {
+    let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = mcap::WriteOptions::new()
+        .compression(Some(mcap::Compression::Zstd))
+        .create(f)
+        .unwrap();
+    let s = w.add_schema(schema, "protobuf", b"").unwrap();
+    let c = w.add_channel(s, topic, encoding, &BTreeMap::new()).unwrap();
+    w.write_to_known_channel(
+        &mcap::records::MessageHeader {
+            channel_id: c,
+            sequence: 1,
+            log_time: 5,
+            publish_time: 5,
+        },
+        b"\x08\x01",
+    )
+    .unwrap();
+    w.finish().unwrap();
+}
+
+#[test]
+fn bad_files_are_refused_cleanly_with_exit_2() {
+    let dir = tmpdir("bad");
+    let check = |path: &Path, needle: &str| {
+        let o = atrium(&["replay", path.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", path.display());
+        assert!(err.contains(needle), "{needle:?} not in {err:?}");
+        assert!(
+            err.contains(path.file_name().unwrap().to_str().unwrap()),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+        // The library says the same without a process.
+        assert!(Recording::open(path).is_err());
+    };
+
+    let text = dir.join("notes.mcap");
+    std::fs::write(&text, "not a recording\n").unwrap();
+    check(&text, "not an MCAP file");
+    check(&dir.join("missing.mcap"), "cannot read file");
+
+    let scenario = bundled_short("corridor_tracking", 2.0);
+    let good = dir.join("good.mcap");
+    dataset::record(
+        &atrium_scenarios::LocalizerRegistry::with_builtins(),
+        &scenario,
+        &good,
+        RunOptions::default(),
+    )
+    .unwrap();
+    let bytes = std::fs::read(&good).unwrap();
+    for (name, len) in [
+        ("half.mcap", bytes.len() / 2),
+        ("cut.mcap", bytes.len() - 3),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, &bytes[..len]).unwrap();
+        check(&p, "truncated");
+    }
+
+    let wrong = dir.join("wrong_schema.mcap");
+    write_mcap(&wrong, "/scan/laser", "foxglove.PointCloud", "protobuf");
+    check(&wrong, "/scan/laser");
+    let o = atrium(&["replay", wrong.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("foxglove.LaserScan"));
+
+    let no_topics = dir.join("no_topics.mcap");
+    write_mcap(&no_topics, "/camera", "foxglove.RawImage", "protobuf");
+    check(&no_topics, "lacks odometry");
+
+    // `record` to a folder that does not exist: bad input, nothing written.
+    let o = atrium(&[
+        "record",
+        atrium_scenarios::default_scenario().to_str().unwrap(),
+        "-o",
+        dir.join("nope/x.mcap").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An unfinished recording (an error or a kill mid-run) never leaves a file under the final
+/// name: the run fails at the kidnapping (into a wall) after the file was opened.
+#[test]
+fn a_failed_recording_leaves_no_file() {
+    let mut scenario = bundled_short("kidnapped", 10.0);
+    // Into the middle of a wall: the loader refuses that, so change the event after loading.
+    let wall = &scenario.world.walls[0];
+    let inside = [0.5 * (wall.a[0] + wall.b[0]), 0.5 * (wall.a[1] + wall.b[1])];
+    assert!(!scenario.world.is_free(inside, 0.0));
+    let atrium_scenarios::scenario::Event::Kidnap { to, .. } = &mut scenario.events[0];
+    *to = atrium_robots::Pose2::new(inside[0], inside[1], 0.0);
+    let dir = tmpdir("failed");
+    let out = dir.join("x.mcap");
+    assert!(dataset::record(
+        &atrium_scenarios::LocalizerRegistry::with_builtins(),
+        &scenario,
+        &out,
+        RunOptions::default()
+    )
+    .is_err());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn exported_occupancy_map_matches_the_free_space() {
+    let world = atrium_worlds::World::campus().unwrap();
+    let dir = tmpdir("map");
+    for include_glass in [false, true] {
+        let yaml = dir.join(format!("campus_{include_glass}.yaml"));
+        let res = 0.1;
+        output::export_map(&world, "ros", &yaml, include_glass, res).unwrap();
+        let pgm = std::fs::read(yaml.with_extension("pgm")).unwrap();
+        let header: Vec<&str> = std::str::from_utf8(&pgm[..20])
+            .unwrap_or_else(|e| std::str::from_utf8(&pgm[..e.valid_up_to()]).unwrap())
+            .split_whitespace()
+            .take(4)
+            .collect();
+        let (w, h): (usize, usize) = (header[1].parse().unwrap(), header[2].parse().unwrap());
+        let pixels = &pgm[pgm.len() - w * h..];
+        let y = std::fs::read_to_string(&yaml).unwrap();
+        let origin: Vec<f64> = y
+            .lines()
+            .find(|l| l.starts_with("origin:"))
+            .unwrap()
+            .trim_start_matches("origin:")
+            .trim()
+            .trim_matches(|c| c == '[' || c == ']')
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect();
+        // The world as the map sees it: furniture is never in a localizer's map, glass only
+        // when asked for.
+        let mut seen = world.clone();
+        seen.boxes.clear();
+        if !include_glass {
+            seen.walls.retain(|wall| !world.is_glass(&wall.material));
+        }
+        let half_diag = res * std::f64::consts::FRAC_1_SQRT_2;
+        let (mut free, mut occupied) = (0, 0);
+        for row in 0..h {
+            for i in 0..w {
+                // PGM rows run top (largest y) to bottom.
+                let j = h - 1 - row;
+                let c = [
+                    origin[0] + (i as f64 + 0.5) * res,
+                    origin[1] + (j as f64 + 0.5) * res,
+                ];
+                let v = pixels[row * w + i];
+                assert!(v == 254 || v == 0 || v == 205);
+                let clearance = seen.clearance(c);
+                if clearance > half_diag {
+                    assert_eq!(v, 254, "cell {c:?} is free space");
+                    free += 1;
+                } else if clearance < 0.0 {
+                    assert_eq!(v, 0, "cell {c:?} lies in a solid");
+                    occupied += 1;
+                }
+            }
+        }
+        assert!(free > 10_000 && occupied > 1_000, "{free} {occupied}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

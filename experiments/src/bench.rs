@@ -1,0 +1,101 @@
+//! `atrium bench`: whole-run throughput figures, measured on this machine. (Kernel-level
+//! figures are criterion benchmarks in the crates: `cargo bench`.)
+
+use atrium_scenarios::scenario::Scenario;
+use atrium_scenarios::{run_scenario, RunOptions};
+use serde_json::{json, Value};
+use std::time::Instant;
+
+pub const WHAT: [&str; 4] = ["all", "corridor_tracking", "laser", "empca"];
+
+fn machine() -> Value {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into());
+    json!({
+        "cpu": cpu,
+        "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        "os": std::env::consts::OS,
+        "arch": std::env::consts::ARCH,
+    })
+}
+
+/// Real-time factor of the bundled `corridor_tracking` scenario, single-threaded.
+pub fn corridor_tracking() -> Result<Value, String> {
+    let path = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
+    let scenario = Scenario::load(&path).map_err(|e| e.to_string())?;
+    let r = run_scenario(&scenario, RunOptions::default()).map_err(|e| e.to_string())?;
+    Ok(json!({
+        "scenario": r.scenario,
+        "sim_time_s": r.sim_time_s,
+        "wall_s": r.timing.wall_s,
+        "real_time_factor": r.timing.real_time_factor,
+        "physics_hz": scenario.physics_hz,
+        "physics_steps": r.timing.physics_steps,
+        "sim_s": r.timing.sim_s,
+        "localizers_s": r.timing.localizers_s.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
+        "lasers": scenario.lasers.iter().map(|l| json!({"name": l.name, "beams": l.beams, "rate_hz": l.rate_hz})).collect::<Vec<_>>(),
+    }))
+}
+
+/// Laser rays per second: full scans from poses along the office corridor of the bundled
+/// campus, through the simulator's ray-cast path (beam model noise included).
+pub fn laser() -> Result<Value, String> {
+    let path = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
+    let scenario = Scenario::load(&path).map_err(|e| e.to_string())?;
+    let config = scenario.sim_config(1);
+    let mut sim = atrium_sim::Simulation::new(&scenario.world, &scenario.robot, config)
+        .map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    sim.step(&mut out); // colliders join the query structure on the first step
+    let beams = scenario
+        .lasers
+        .first()
+        .map(|l| l.beams)
+        .ok_or("corridor_tracking has no laser")?;
+    let scans = 2000;
+    let started = Instant::now();
+    let mut checksum = 0.0;
+    for i in 0..scans {
+        let pose =
+            atrium_robots::Pose2::new(2.0 + 26.0 * (i as f64 / scans as f64), 20.0, 0.3 * i as f64);
+        let scan = sim.scan_at(pose, 0).map_err(|e| e.to_string())?;
+        checksum += scan.ranges[beams / 2];
+    }
+    let secs = started.elapsed().as_secs_f64();
+    Ok(json!({
+        "scans": scans,
+        "beams": beams,
+        "seconds": secs,
+        "rays_per_s": (scans * beams) as f64 / secs,
+        "scans_per_s": scans as f64 / secs,
+        "checksum": checksum,
+    }))
+}
+
+pub fn run(what: &str) -> Result<Value, String> {
+    let mut doc = serde_json::Map::new();
+    doc.insert("machine".into(), machine());
+    if what == "all" || what == "corridor_tracking" {
+        doc.insert("corridor_tracking".into(), corridor_tracking()?);
+    }
+    if what == "all" || what == "laser" {
+        doc.insert("laser".into(), laser()?);
+    }
+    if what == "all" || what == "empca" {
+        let b = crate::bench_appearance::EmPcaBench::default();
+        doc.insert("empca".into(), crate::bench_appearance::empca(&b)?);
+    }
+    if doc.len() == 1 {
+        return Err(format!(
+            "unknown benchmark {what:?} (known: {})",
+            WHAT.join(", ")
+        ));
+    }
+    Ok(Value::Object(doc))
+}

@@ -1,0 +1,583 @@
+//! `atrium record`: a live run written to MCAP as it happens (a [`RunObserver`] of the
+//! runner), zstd-compressed chunks, log times from the simulation clock, written under a
+//! temporary name and renamed once complete.
+
+use super::codec::{self, json_schemas, ns_of};
+use super::scene::{robot_transforms, scene_update};
+use super::topics;
+use atrium_localization::Estimate;
+use atrium_robots::{Pose2, Reading};
+use atrium_scenarios::error::ScenarioError;
+use atrium_scenarios::runner::{RunObserver, RunOptions, RunResult, SimStream, Tick};
+use atrium_scenarios::scenario::{Event, Scenario};
+use atrium_scenarios::LocalizerRegistry;
+use foxglove::messages as fg;
+use foxglove::Encode;
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// The name of the header metadata record.
+pub const METADATA_NAME: &str = "atrium";
+/// The name of the metadata record written when the run has ended.
+pub const SUMMARY_NAME: &str = "atrium.summary";
+
+fn event_json(e: &Event) -> serde_json::Value {
+    match e {
+        Event::Kidnap { at_s, to } => serde_json::json!({
+            "kind": "kidnap",
+            "at_s": at_s,
+            "to": {"x": to.x, "y": to.y, "theta": to.theta},
+        }),
+    }
+}
+
+/// Parses the events of [`event_json`] back (the `events` metadata key).
+pub fn events_from_json(v: &serde_json::Value) -> Result<Vec<Event>, String> {
+    let list = v.as_array().ok_or("events: not a list")?;
+    list.iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let num = |p: &str| {
+                e.pointer(p)
+                    .and_then(serde_json::Value::as_f64)
+                    .ok_or_else(|| format!("events[{i}]{}: missing number", p.replace('/', ".")))
+            };
+            match e.get("kind").and_then(|k| k.as_str()) {
+                Some("kidnap") => Ok(Event::Kidnap {
+                    at_s: num("/at_s")?,
+                    to: Pose2::new(num("/to/x")?, num("/to/y")?, num("/to/theta")?),
+                }),
+                other => Err(format!("events[{i}].kind: unknown event {other:?}")),
+            }
+        })
+        .collect()
+}
+
+struct Schemas {
+    laser: u16,
+    image: u16,
+    pose: u16,
+    tf: u16,
+    scene: u16,
+    wifi: u16,
+    landmarks: u16,
+    odometry: u16,
+    score: u16,
+    event: u16,
+}
+
+/// Writes one run to an MCAP file. Create it, pass it to the runner as its observer, then
+/// [`Recorder::finish`] with the run's result; dropped unfinished, it removes its temporary
+/// file and the final name is never created.
+pub struct Recorder {
+    writer: Option<mcap::Writer<BufWriter<File>>>,
+    tmp: PathBuf,
+    path: PathBuf,
+    schemas: Schemas,
+    channels: HashMap<String, u16>,
+    sequence: HashMap<u16, u32>,
+    buf: Vec<u8>,
+    image_buf: Vec<u8>,
+    laser_msg: fg::LaserScan,
+    image_msg: fg::RawImage,
+    /// Laser name -> (frame, scan origin in that frame) from the scenario's sensor specs.
+    laser_frames: HashMap<String, (String, Pose2)>,
+    base_link: String,
+    localizer_names: Vec<String>,
+    world: atrium_worlds::World,
+    robot: atrium_robots::RobotModel,
+    started: bool,
+    messages: u64,
+}
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> ScenarioError {
+    ScenarioError::Io {
+        file: path.to_path_buf(),
+        err: std::io::Error::other(e.to_string()),
+    }
+}
+
+impl Recorder {
+    /// Opens `<dir>/.<name>.<pid>.tmp` for writing and puts the scenario text, seed and Atrium
+    /// version in the file's `atrium` metadata record.
+    pub fn create(path: &Path, scenario: &Scenario, seed: u64) -> Result<Recorder, ScenarioError> {
+        let file_name = path
+            .file_name()
+            .ok_or_else(|| io_err(path, "not a file path"))?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(file_name);
+        tmp_name.push(format!(".{}.tmp", std::process::id()));
+        let tmp = path.with_file_name(tmp_name);
+        let file = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+        let mut writer = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .profile("")
+            .library(format!("atrium {}", env!("CARGO_PKG_VERSION")))
+            .create(BufWriter::with_capacity(1 << 20, file))
+            .map_err(|e| io_err(&tmp, e))?;
+
+        let mut add = |name: &str, encoding: &str, data: &[u8]| {
+            writer
+                .add_schema(name, encoding, data)
+                .map_err(|e| io_err(&tmp, e))
+        };
+        let fox = |s: Option<foxglove::Schema>| s.expect("well-known schemas have a schema");
+        let (l, i, p, t, s) = (
+            fox(fg::LaserScan::get_schema()),
+            fox(fg::RawImage::get_schema()),
+            fox(fg::PoseInFrame::get_schema()),
+            fox(fg::FrameTransforms::get_schema()),
+            fox(fg::SceneUpdate::get_schema()),
+        );
+        let schemas = Schemas {
+            laser: add(&l.name, &l.encoding, &l.data)?,
+            image: add(&i.name, &i.encoding, &i.data)?,
+            pose: add(&p.name, &p.encoding, &p.data)?,
+            tf: add(&t.name, &t.encoding, &t.data)?,
+            scene: add(&s.name, &s.encoding, &s.data)?,
+            wifi: add(
+                "atrium.WifiScan",
+                "jsonschema",
+                json_schemas::WIFI_SCAN.as_bytes(),
+            )?,
+            landmarks: add(
+                "atrium.LandmarkDetections",
+                "jsonschema",
+                json_schemas::LANDMARKS.as_bytes(),
+            )?,
+            odometry: add(
+                "atrium.WheelOdometry",
+                "jsonschema",
+                json_schemas::WHEEL_ODOMETRY.as_bytes(),
+            )?,
+            score: add(
+                "atrium.ScoringInstant",
+                "jsonschema",
+                json_schemas::SCORE.as_bytes(),
+            )?,
+            event: add("atrium.Event", "jsonschema", json_schemas::EVENT.as_bytes())?,
+        };
+
+        let scenario_file = std::fs::canonicalize(&scenario.file)
+            .unwrap_or_else(|_| scenario.file.clone())
+            .to_string_lossy()
+            .into_owned();
+        let localizers: Vec<serde_json::Value> = scenario
+            .localizers
+            .iter()
+            .map(|l| serde_json::json!({"name": l.name, "kind": l.kind}))
+            .collect();
+        let events: Vec<serde_json::Value> = scenario.events.iter().map(event_json).collect();
+        let metadata = BTreeMap::from([
+            (
+                "atrium_version".to_string(),
+                env!("CARGO_PKG_VERSION").to_string(),
+            ),
+            ("seed".into(), seed.to_string()),
+            ("scenario_name".into(), scenario.name.clone()),
+            ("scenario_file".into(), scenario_file),
+            ("scenario".into(), scenario.text.clone()),
+            ("world".into(), scenario.world.name.clone()),
+            ("robot".into(), scenario.robot.name.clone()),
+            ("base_link".into(), scenario.robot.base_link.clone()),
+            ("physics_hz".into(), format!("{:?}", scenario.physics_hz)),
+            ("eval_hz".into(), format!("{:?}", scenario.eval_hz)),
+            (
+                "localizers".into(),
+                serde_json::Value::from(localizers).to_string(),
+            ),
+            ("events".into(), serde_json::Value::from(events).to_string()),
+        ]);
+        writer
+            .write_metadata(&mcap::records::Metadata {
+                name: METADATA_NAME.into(),
+                metadata,
+            })
+            .map_err(|e| io_err(&tmp, e))?;
+
+        let laser_frames = scenario
+            .lasers
+            .iter()
+            .map(|l| (l.name.clone(), (l.mount.clone(), Pose2::default())))
+            .collect();
+        Ok(Recorder {
+            writer: Some(writer),
+            path: path.to_path_buf(),
+            tmp,
+            schemas,
+            channels: HashMap::new(),
+            sequence: HashMap::new(),
+            buf: Vec::with_capacity(1 << 16),
+            image_buf: Vec::new(),
+            laser_msg: fg::LaserScan::default(),
+            image_msg: fg::RawImage::default(),
+            laser_frames,
+            base_link: scenario.robot.base_link.clone(),
+            localizer_names: scenario.localizers.iter().map(|l| l.name.clone()).collect(),
+            world: scenario.world.clone(),
+            robot: scenario.robot.clone(),
+            started: false,
+            messages: 0,
+        })
+    }
+
+    /// Messages written so far.
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    fn writer(&mut self) -> &mut mcap::Writer<BufWriter<File>> {
+        self.writer.as_mut().expect("the writer lives until finish")
+    }
+
+    fn channel(
+        &mut self,
+        topic: &str,
+        schema: u16,
+        metadata: impl FnOnce() -> BTreeMap<String, String>,
+    ) -> Result<u16, ScenarioError> {
+        if let Some(&id) = self.channels.get(topic) {
+            return Ok(id);
+        }
+        let encoding = if schema == self.schemas.wifi
+            || schema == self.schemas.landmarks
+            || schema == self.schemas.odometry
+            || schema == self.schemas.score
+            || schema == self.schemas.event
+        {
+            "json"
+        } else {
+            "protobuf"
+        };
+        let meta = metadata();
+        let tmp = self.tmp.clone();
+        let id = self
+            .writer()
+            .add_channel(schema, topic, encoding, &meta)
+            .map_err(|e| io_err(&tmp, e))?;
+        self.channels.insert(topic.to_string(), id);
+        Ok(id)
+    }
+
+    /// Writes `self.buf` on `channel` at `ns`.
+    fn put(&mut self, channel: u16, ns: u64) -> Result<(), ScenarioError> {
+        let seq = self.sequence.entry(channel).or_insert(0);
+        *seq += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: *seq,
+            log_time: ns,
+            publish_time: ns,
+        };
+        let writer = self.writer.as_mut().expect("the writer lives until finish");
+        writer
+            .write_to_known_channel(&header, &self.buf)
+            .map_err(|e| io_err(&self.tmp, e))?;
+        self.messages += 1;
+        Ok(())
+    }
+
+    fn put_proto(&mut self, channel: u16, ns: u64, msg: &impl Encode) -> Result<(), ScenarioError> {
+        self.buf.clear();
+        msg.encode(&mut self.buf)
+            .map_err(|e| io_err(&self.tmp, format!("encoding: {e}")))?;
+        self.put(channel, ns)
+    }
+
+    fn put_json(
+        &mut self,
+        channel: u16,
+        ns: u64,
+        v: &impl serde::Serialize,
+    ) -> Result<(), ScenarioError> {
+        self.buf.clear();
+        serde_json::to_writer(&mut self.buf, v).map_err(|e| io_err(&self.tmp, e))?;
+        self.put(channel, ns)
+    }
+
+    fn write_static(&mut self, ns: u64) -> Result<(), ScenarioError> {
+        let scene = scene_update(&self.world, topics::MAP_FRAME, ns);
+        let ch = self.channel(topics::SCENE, self.schemas.scene, BTreeMap::new)?;
+        self.put_proto(ch, ns, &scene)?;
+        let tf = fg::FrameTransforms {
+            transforms: robot_transforms(&self.robot, ns),
+        };
+        let ch = self.channel(topics::TF, self.schemas.tf, BTreeMap::new)?;
+        self.put_proto(ch, ns, &tf)
+    }
+
+    fn write_reading(
+        &mut self,
+        r: &Reading,
+        ns: u64,
+        truth: Option<Pose2>,
+    ) -> Result<(), ScenarioError> {
+        match r {
+            Reading::Odometry(o) => {
+                let ch = self.channel(topics::ODOM, self.schemas.pose, BTreeMap::new)?;
+                self.put_proto(
+                    ch,
+                    ns,
+                    &codec::pose_in_frame(ns, topics::ODOM_FRAME, &o.pose),
+                )?;
+                let ch = self.channel(topics::ODOM_WHEELS, self.schemas.odometry, BTreeMap::new)?;
+                self.put_json(ch, ns, o)?;
+                // The odometry and ground-truth frames: odom -> base from the wheels, and
+                // map -> odom such that map -> base is the true pose.
+                let mut transforms = vec![codec::planar_transform(
+                    ns,
+                    topics::ODOM_FRAME,
+                    &self.base_link,
+                    &o.pose,
+                )];
+                if let Some(gt) = truth {
+                    let map_to_odom = gt.compose(&o.pose.inverse());
+                    transforms.push(codec::planar_transform(
+                        ns,
+                        topics::MAP_FRAME,
+                        topics::ODOM_FRAME,
+                        &map_to_odom,
+                    ));
+                }
+                let ch = self.channel(topics::TF, self.schemas.tf, BTreeMap::new)?;
+                self.put_proto(ch, ns, &fg::FrameTransforms { transforms })?;
+            }
+            Reading::Laser(scan) => {
+                let topic = format!("{}{}", topics::SCAN_PREFIX, scan.sensor);
+                let ch =
+                    self.channel(&topic, self.schemas.laser, || codec::laser_metadata(scan))?;
+                let (frame, origin) = self
+                    .laser_frames
+                    .get(&scan.sensor)
+                    .cloned()
+                    .unwrap_or_else(|| (self.base_link.clone(), scan.mount));
+                let mut msg = std::mem::take(&mut self.laser_msg);
+                codec::fill_laser(&mut msg, ns, &frame, &origin, scan);
+                let res = self.put_proto(ch, ns, &msg);
+                self.laser_msg = msg;
+                res?;
+            }
+            Reading::Depth(d) => {
+                let topic = format!("{}{}", topics::DEPTH_PREFIX, d.sensor);
+                if !self.channels.contains_key(&topic) {
+                    // The camera's frame, once, before its first image.
+                    let tf = fg::FrameTransforms {
+                        transforms: vec![codec::frame_transform(
+                            ns,
+                            &self.base_link,
+                            &d.sensor,
+                            &d.mount,
+                        )],
+                    };
+                    let ch = self.channel(topics::TF, self.schemas.tf, BTreeMap::new)?;
+                    self.put_proto(ch, ns, &tf)?;
+                }
+                let ch = self.channel(&topic, self.schemas.image, || codec::depth_metadata(d))?;
+                let mut msg = std::mem::take(&mut self.image_msg);
+                let mut data = std::mem::take(&mut self.image_buf);
+                codec::fill_depth(&mut msg, &mut data, ns, &d.sensor, d);
+                let res = self.put_proto(ch, ns, &msg);
+                // Take the pixel buffer back for the next image when no one else holds it.
+                let bytes = std::mem::take(&mut msg.data);
+                self.image_buf = Vec::from(bytes);
+                self.image_msg = msg;
+                res?;
+            }
+            Reading::Intensity(i) => {
+                let topic = format!("{}{}", topics::IMAGE_PREFIX, i.sensor);
+                if !self.channels.contains_key(&topic) {
+                    // The camera's frame, once, before its first image.
+                    let tf = fg::FrameTransforms {
+                        transforms: vec![codec::frame_transform(
+                            ns,
+                            &self.base_link,
+                            &i.sensor,
+                            &i.mount,
+                        )],
+                    };
+                    let ch = self.channel(topics::TF, self.schemas.tf, BTreeMap::new)?;
+                    self.put_proto(ch, ns, &tf)?;
+                }
+                let ch = self.channel(&topic, self.schemas.image, || {
+                    super::images::intensity_metadata(i)
+                })?;
+                let mut msg = std::mem::take(&mut self.image_msg);
+                let mut data = std::mem::take(&mut self.image_buf);
+                super::images::fill_intensity(&mut msg, &mut data, ns, &i.sensor, i);
+                let res = self.put_proto(ch, ns, &msg);
+                self.image_buf = Vec::from(std::mem::take(&mut msg.data));
+                self.image_msg = msg;
+                res?;
+            }
+            Reading::Disparity(d) => {
+                let topic = format!("{}{}", topics::DISPARITY_PREFIX, d.sensor);
+                let ch = self.channel(&topic, self.schemas.image, || {
+                    super::images::disparity_metadata(d)
+                })?;
+                let mut msg = std::mem::take(&mut self.image_msg);
+                let mut data = std::mem::take(&mut self.image_buf);
+                super::images::fill_disparity(&mut msg, &mut data, ns, &d.sensor, d);
+                let res = self.put_proto(ch, ns, &msg);
+                self.image_buf = Vec::from(std::mem::take(&mut msg.data));
+                self.image_msg = msg;
+                res?;
+            }
+            Reading::Wifi(w) => {
+                let topic = format!("{}{}", topics::WIFI_PREFIX, w.sensor);
+                let ch = self.channel(&topic, self.schemas.wifi, BTreeMap::new)?;
+                self.put_json(ch, ns, w)?;
+            }
+            Reading::Landmarks(l) => {
+                let topic = format!("{}{}", topics::LANDMARKS_PREFIX, l.sensor);
+                let ch = self.channel(&topic, self.schemas.landmarks, BTreeMap::new)?;
+                self.put_json(ch, ns, l)?;
+            }
+            // `Reading` is non-exhaustive: a sensor added later without an encoder here is
+            // left out of the recording rather than failing the run.
+            #[allow(unreachable_patterns)]
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Writes the run's totals and metrics, completes the file and renames it to its final
+    /// name. Returns the final size in bytes.
+    pub fn finish(mut self, run: &RunResult) -> Result<u64, ScenarioError> {
+        let tmp = self.tmp.clone();
+        let mut metrics = atrium_scenarios::report::to_json(run);
+        if let Some(o) = metrics.as_object_mut() {
+            o.remove("timing");
+        }
+        let summary = BTreeMap::from([
+            ("sim_time_s".to_string(), format!("{:?}", run.sim_time_s)),
+            ("distance_m".into(), format!("{:?}", run.distance_m)),
+            ("route_completed".into(), run.route_completed.to_string()),
+            ("physics_steps".into(), run.timing.physics_steps.to_string()),
+            ("metrics".into(), metrics.to_string()),
+        ]);
+        let mut writer = self.writer.take().expect("the writer lives until finish");
+        let done = (|| -> Result<u64, ScenarioError> {
+            writer
+                .write_metadata(&mcap::records::Metadata {
+                    name: SUMMARY_NAME.into(),
+                    metadata: summary,
+                })
+                .map_err(|e| io_err(&tmp, e))?;
+            writer.finish().map_err(|e| io_err(&tmp, e))?;
+            let file = writer
+                .into_inner()
+                .into_inner()
+                .map_err(|e| io_err(&tmp, e.error()))?;
+            file.sync_all().map_err(|e| io_err(&tmp, e))?;
+            let len = file.metadata().map_err(|e| io_err(&tmp, e))?.len();
+            std::fs::rename(&tmp, &self.path).map_err(|e| io_err(&self.path, e))?;
+            Ok(len)
+        })();
+        if done.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        done
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        if let Some(w) = self.writer.take() {
+            // Unfinished (an error during the run): no file under any name.
+            drop(w);
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+impl RunObserver for Recorder {
+    fn instant(
+        &mut self,
+        tick: &Tick,
+        readings: &[Reading],
+        estimates: Option<&[Estimate]>,
+    ) -> Result<(), ScenarioError> {
+        let ns = ns_of(tick.t);
+        if !self.started {
+            self.started = true;
+            self.write_static(ns)?;
+        }
+        for e in &tick.events {
+            let ch = self.channel(topics::EVENTS, self.schemas.event, BTreeMap::new)?;
+            self.put_json(ch, ns, &event_json(e))?;
+        }
+        for r in readings {
+            self.write_reading(r, ns, tick.truth)?;
+        }
+        if let (true, Some(gt)) = (tick.score, tick.truth) {
+            let ch = self.channel(topics::GROUND_TRUTH, self.schemas.pose, BTreeMap::new)?;
+            self.put_proto(ch, ns, &codec::pose_in_frame(ns, topics::MAP_FRAME, &gt))?;
+            let ch = self.channel(topics::SCORE, self.schemas.score, BTreeMap::new)?;
+            self.put_json(
+                ch,
+                ns,
+                &serde_json::json!({"t": tick.t, "x": gt.x, "y": gt.y, "theta": gt.theta}),
+            )?;
+            for (i, est) in estimates.unwrap_or_default().iter().enumerate() {
+                let Some(name) = self.localizer_names.get(i).cloned() else {
+                    break;
+                };
+                let topic = format!("{}{}", topics::ESTIMATE_PREFIX, name);
+                let ch = self.channel(&topic, self.schemas.pose, BTreeMap::new)?;
+                self.put_proto(
+                    ch,
+                    ns,
+                    &codec::pose_in_frame(ns, topics::MAP_FRAME, &est.pose),
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a recording run produced.
+#[derive(Debug, Clone)]
+pub struct Recorded {
+    pub run: RunResult,
+    pub path: PathBuf,
+    pub bytes: u64,
+    pub messages: u64,
+}
+
+/// Runs `scenario` live, its localizers built from `registry`, and records it to `path` (see
+/// the module docs).
+pub fn record(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    path: &Path,
+    mut options: RunOptions,
+) -> Result<Recorded, ScenarioError> {
+    let seed = options.seed.unwrap_or(scenario.seed);
+    let mut recorder = Recorder::create(path, scenario, seed)?;
+    let mut stream = SimStream::new(scenario, seed)?;
+    let run = registry.run_stream(
+        scenario,
+        seed,
+        &mut stream,
+        &scenario.events,
+        RunOptions {
+            seed: Some(seed),
+            // A shorter reborrow, so the recorder need not outlive the caller's closure.
+            progress: options
+                .progress
+                .as_deref_mut()
+                .map(|p| p as &mut dyn FnMut(f64, f64)),
+            observer: Some(&mut recorder),
+        },
+    )?;
+    let messages = recorder.messages();
+    let bytes = recorder.finish(&run)?;
+    Ok(Recorded {
+        run,
+        path: path.to_path_buf(),
+        bytes,
+        messages,
+    })
+}

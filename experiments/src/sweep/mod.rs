@@ -1,0 +1,20 @@
+//! Parameter sweeps (issue 9, deliverable 1 and the CSV/summary part of 2): a sweep TOML
+//! names a base scenario, parameter axes and trials per cell; `atrium sweep` runs every trial
+//! in parallel with seeds derived from the trial's index (so results do not depend on the
+//! thread count or the sharding), appends one row batch per trial to `results.csv`, and
+//! writes `summary.md`. Source of the experiment design: 004_5bf198ec52fcbc0c.txt §3.
+
+pub mod bench;
+pub mod csv;
+pub mod end_error;
+pub mod format;
+pub mod heatmap;
+pub mod maps;
+pub mod merge;
+pub mod run;
+pub mod summary;
+pub mod text;
+
+pub use format::{Axis, Sweep};
+pub use merge::merge;
+pub use run::{parse_shard, run_sweep, SweepOutcome, SweepSettings};

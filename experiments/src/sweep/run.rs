@@ -1,0 +1,396 @@
+//! Running a sweep: trials in parallel on a rayon pool, one atomically appended row batch per
+//! finished trial, resumable, and sliceable into shards for batch schedulers.
+
+use super::csv::{self, Results, Row};
+use super::format::Sweep;
+use super::heatmap::{self, AxisLabels};
+use super::maps;
+use super::summary;
+use atrium_scenarios::error::ScenarioError;
+use atrium_scenarios::maps::SharedMaps;
+use atrium_scenarios::runner::RunOptions;
+use atrium_scenarios::seeds::derive_seed;
+use rayon::prelude::*;
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// How to run a sweep (everything that is not part of the sweep file).
+#[derive(Debug, Clone)]
+pub struct SweepSettings {
+    pub out: PathBuf,
+    /// Worker threads (None: rayon's default, one per core).
+    pub jobs: Option<usize>,
+    /// (I, N): run only the trials whose global index % N == I.
+    pub shard: Option<(usize, usize)>,
+    /// Skip trials already in `out/results.csv` instead of refusing to touch it.
+    pub resume: bool,
+    /// Show a progress bar (the caller decides: on a terminal only).
+    pub progress: bool,
+}
+
+/// What a sweep run did.
+#[derive(Debug, Clone)]
+pub struct SweepOutcome {
+    /// Trials of this shard run now.
+    pub ran: usize,
+    /// Trials of this shard found already recorded (resume).
+    pub skipped: usize,
+    pub results_csv: PathBuf,
+    pub summary_md: PathBuf,
+    /// Heat maps and error-map files written.
+    pub pictures: Vec<PathBuf>,
+    pub wall_s: f64,
+}
+
+/// Parses `I/N` with 0 <= I < N.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("--shard {s:?}: expected I/N, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard {s:?}: I must be a non-negative integer"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard {s:?}: N must be a positive integer"))?;
+    if n == 0 || i >= n {
+        return Err(format!("--shard {s:?}: index {i} out of range 0..{n}"));
+    }
+    Ok((i, n))
+}
+
+/// The seed of trial `trial` of cell `cell`: a function of the sweep seed and the trial's
+/// position only, which is what makes results independent of threads and shards.
+pub fn trial_seed(sweep_seed: u64, cell: usize, trial: usize) -> u64 {
+    derive_seed(sweep_seed, &format!("trial/{cell}/{trial}"))
+}
+
+/// An axis value as results.csv and the pictures show it (strings without quotes).
+fn label(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// The sweep's axes with their value labels, for the heat maps.
+pub fn axis_labels(sweep: &Sweep) -> Vec<AxisLabels> {
+    sweep
+        .axes
+        .iter()
+        .map(|a| AxisLabels {
+            path: a.path.clone(),
+            values: a.values.iter().map(label).collect(),
+        })
+        .collect()
+}
+
+/// Writes the heat maps of `results` and, when `error_maps` gives the trials to sum (and
+/// whether the sweep has a single cell), the error-map CSV and pictures. Returns the files.
+pub fn write_pictures(
+    out: &Path,
+    results: &Results,
+    axes: &[AxisLabels],
+    error_maps: Option<(&[(usize, usize)], bool)>,
+) -> Result<Vec<PathBuf>, ScenarioError> {
+    let mut written = Vec::new();
+    let pics = heatmap::heatmaps(results, axes)
+        .map_err(|msg| ScenarioError::field(out, "heatmap", msg))?;
+    for (name, png) in pics {
+        let p = out.join(name);
+        atrium_scenarios::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Io {
+            file: p.clone(),
+            err,
+        })?;
+        written.push(p);
+    }
+    if let Some((trials, single)) = error_maps {
+        let combined = maps::combine(out, trials)?;
+        written.extend(maps::write_outputs(out, &combined, single)?);
+    }
+    Ok(written)
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map(|x| x.to_string()).unwrap_or_default()
+}
+
+/// Runs one trial and returns its rows (one per localizer, in scenario order). With
+/// `[error_map]`, the trial's map is written to `out/maps/` before the rows are returned.
+fn run_trial(
+    sweep: &Sweep,
+    scenario: &atrium_scenarios::scenario::Scenario,
+    cell: usize,
+    trial: usize,
+    out: &Path,
+) -> Result<Vec<Row>, ScenarioError> {
+    let seed = trial_seed(sweep.seed, cell, trial);
+    let started = Instant::now();
+    let result = sweep.registry.run(
+        scenario,
+        RunOptions {
+            seed: Some(seed),
+            ..Default::default()
+        },
+    )?;
+    let wall = started.elapsed().as_secs_f64();
+    if let Some(res) = sweep.error_map {
+        let mut map = atrium_scenarios::error_maps::empty_for(scenario, res)
+            .map_err(|msg| ScenarioError::field(&sweep.file, "error_map.resolution", msg))?;
+        atrium_scenarios::error_maps::accumulate(&mut map, &result);
+        maps::write_trial_map(out, cell, trial, &map)?;
+    }
+    let params: Vec<String> = sweep
+        .cell_params(cell)
+        .iter()
+        .map(|(_, v)| label(v))
+        .collect();
+    Ok(result
+        .localizers
+        .iter()
+        .map(|l| {
+            let m = l.metrics.as_ref();
+            let p = m.map(|m| &m.position_error);
+            Row {
+                params: params.clone(),
+                cell,
+                trial,
+                seed,
+                localizer: l.name.clone(),
+                values: vec![
+                    fmt_opt(p.map(|p| p.min)),
+                    fmt_opt(p.map(|p| p.median)),
+                    fmt_opt(p.map(|p| p.rmse)),
+                    fmt_opt(p.map(|p| p.p95)),
+                    fmt_opt(p.map(|p| p.max)),
+                    fmt_opt(m.map(|m| m.final_position_error)),
+                    fmt_opt(m.and_then(|m| m.converged_after_s)),
+                    l.passed.to_string(),
+                    format!("{wall:.3}"),
+                ],
+            }
+        })
+        .collect())
+}
+
+/// Sorts rows by (cell, trial, localizer) and drops repeats of a key (the first wins).
+pub fn canonical(mut rows: Vec<Row>) -> Vec<Row> {
+    rows.sort_by(|a, b| a.key().cmp(&b.key()));
+    rows.dedup_by(|a, b| a.key() == b.key());
+    rows
+}
+
+/// Runs `sweep` into `settings.out`: `results.csv` (rows appended per finished trial, each
+/// batch one write + fsync, then sorted once the shard is complete) and `summary.md`.
+pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome, ScenarioError> {
+    let started = Instant::now();
+    let out = &settings.out;
+    let io = |file: &Path| {
+        let file = file.to_path_buf();
+        move |err| ScenarioError::Io {
+            file: file.clone(),
+            err,
+        }
+    };
+    std::fs::create_dir_all(out).map_err(io(out))?;
+    let csv_path = out.join("results.csv");
+    let axis_paths: Vec<String> = sweep.axes.iter().map(|a| a.path.clone()).collect();
+    // Localizer count per trial: a trial is recorded only when all its rows are.
+    let per_trial = sweep.cell_scenario(0)?.localizers.len();
+
+    let mut done: BTreeSet<(usize, usize)> = BTreeSet::new();
+    if csv_path.exists() {
+        let existing = csv::read_results(&csv_path)?;
+        if existing.hash != sweep.hash {
+            return Err(ScenarioError::field(
+                &csv_path,
+                "hash",
+                format!(
+                    "results of a different sweep (hash {}, this sweep {}): choose another --out",
+                    existing.hash, sweep.hash
+                ),
+            ));
+        }
+        if !settings.resume {
+            return Err(ScenarioError::field(
+                &csv_path,
+                "results",
+                "already holds results of this sweep: pass --resume to continue it, or choose another --out",
+            ));
+        }
+        // Keep only whole trials; the partial line and any trial missing rows are redone.
+        let mut count: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+        for r in &existing.rows {
+            *count.entry((r.cell, r.trial)).or_default() += 1;
+        }
+        // With error maps a trial also needs its map file (written before its rows, so only
+        // a deleted file can be missing).
+        done = count
+            .into_iter()
+            .filter(|&(_, n)| n >= per_trial)
+            .map(|(k, _)| k)
+            .filter(|&(c, t)| {
+                sweep.error_map.is_none() || maps::trial_map_path(out, c, t).is_file()
+            })
+            .collect();
+        let kept = Results {
+            rows: existing
+                .rows
+                .into_iter()
+                .filter(|r| done.contains(&(r.cell, r.trial)))
+                .collect(),
+            ..existing
+        };
+        csv::write_atomic(&csv_path, &kept.to_text())?;
+    } else {
+        csv::write_atomic(
+            &csv_path,
+            &csv::header(&sweep.hash, &sweep.name, &axis_paths),
+        )?;
+    }
+    let sweep_json = serde_json::json!({
+        "sweep": sweep.file,
+        "base": sweep.base_file,
+        "hash": sweep.hash,
+        "seed": sweep.seed,
+        "trials_per_cell": sweep.trials,
+        "cells": sweep.cells(),
+        "axes": sweep.axes.iter().map(|a| serde_json::json!({
+            "path": a.path,
+            "values": a.values.iter().map(|v| v.to_string()).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "shard": settings.shard.map(|(i, n)| format!("{i}/{n}")),
+    });
+    csv::write_atomic(
+        &out.join("sweep.json"),
+        &serde_json::to_string_pretty(&sweep_json).unwrap_or_default(),
+    )?;
+
+    let (shard_i, shard_n) = settings.shard.unwrap_or((0, 1));
+    let mine: Vec<(usize, usize)> = (0..sweep.total_trials())
+        .filter(|g| g % shard_n == shard_i)
+        .map(|g| (g / sweep.trials, g % sweep.trials))
+        .collect();
+    let todo: Vec<(usize, usize)> = mine.iter().copied().filter(|k| !done.contains(k)).collect();
+    let skipped = mine.len() - todo.len();
+
+    // Scenarios are parsed once per cell, not per trial, and each cell's maps (likelihood
+    // field, grids) are held while it has trials left, so its trials share one copy.
+    let cells: BTreeSet<usize> = todo.iter().map(|&(c, _)| c).collect();
+    let mut scenarios = std::collections::BTreeMap::new();
+    let mut held: std::collections::BTreeMap<usize, (Mutex<Option<SharedMaps>>, AtomicUsize)> =
+        Default::default();
+    for c in cells {
+        let scenario = sweep.cell_scenario(c)?;
+        if sweep.error_map.is_some() {
+            maps::write_world(out, c, &scenario.world)?;
+        }
+        let left = todo.iter().filter(|k| k.0 == c).count();
+        let warm = sweep.warm_cell(c, &scenario)?;
+        held.insert(c, (Mutex::new(Some(warm)), AtomicUsize::new(left)));
+        scenarios.insert(c, scenario);
+    }
+
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&csv_path)
+        .map_err(io(&csv_path))?;
+    let file = Mutex::new(file);
+    let bar = settings.progress.then(|| {
+        let bar = indicatif::ProgressBar::new(todo.len() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg} [{bar:40}] {pos}/{len} trials (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(sweep.name.clone());
+        bar
+    });
+    let work = || {
+        todo.par_iter().try_for_each(|&(cell, trial)| {
+            let rows = run_trial(sweep, &scenarios[&cell], cell, trial, out)?;
+            let batch: String = rows.iter().map(Row::to_line).collect();
+            // One write of whole lines, then fsync, under the lock: rows of concurrent
+            // trials never interleave and a kill leaves at most a partial last line.
+            let mut f = file.lock().unwrap_or_else(|p| p.into_inner());
+            f.write_all(batch.as_bytes())
+                .and_then(|_| f.sync_data())
+                .map_err(io(&csv_path))?;
+            drop(f);
+            let (maps, left) = &held[&cell];
+            if left.fetch_sub(1, Ordering::AcqRel) == 1 {
+                // The cell's last trial: free its maps.
+                maps.lock().unwrap_or_else(|p| p.into_inner()).take();
+            }
+            if let Some(b) = &bar {
+                b.inc(1);
+            }
+            Ok::<(), ScenarioError>(())
+        })
+    };
+    match settings.jobs {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| ScenarioError::field(&sweep.file, "--jobs", e.to_string()))?
+            .install(work)?,
+        None => work()?,
+    }
+    drop(file);
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+
+    // The shard is complete: rewrite the file in canonical order so its content does not
+    // depend on which thread finished first.
+    let results = csv::read_results(&csv_path)?;
+    let results = Results {
+        rows: canonical(results.rows),
+        ..results
+    };
+    csv::write_atomic(&csv_path, &results.to_text())?;
+    let summary_md = out.join("summary.md");
+    csv::write_atomic(&summary_md, &summary::to_markdown(&results))?;
+    let pictures = write_pictures(
+        out,
+        &results,
+        &axis_labels(sweep),
+        sweep
+            .error_map
+            .map(|_| (mine.as_slice(), sweep.cells() == 1)),
+    )?;
+    Ok(SweepOutcome {
+        ran: todo.len(),
+        skipped,
+        results_csv: csv_path,
+        summary_md,
+        pictures,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_parsing() {
+        assert_eq!(parse_shard("1/4"), Ok((1, 4)));
+        assert!(parse_shard("4/4").unwrap_err().contains("out of range"));
+        assert!(parse_shard("0/0").is_err());
+        assert!(parse_shard("x").is_err());
+    }
+
+    #[test]
+    fn trial_seeds_are_distinct_and_pinned_to_position() {
+        assert_ne!(trial_seed(1, 0, 1), trial_seed(1, 1, 0));
+        assert_eq!(trial_seed(1, 2, 3), derive_seed(1, "trial/2/3"));
+    }
+}

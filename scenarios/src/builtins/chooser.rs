@@ -1,0 +1,863 @@
+//! Building the sensor choosers (`kind = "chooser"`) and the fused localizer
+//! (`kind = "fused"`) of `atrium_localization::chooser` (004_5bf198ec52fcbc0c.txt §4) from a
+//! scenario's `[[localizers]]` table.
+//!
+//! ```toml
+//! [[localizers]]
+//! name = "by_map"
+//! kind = "chooser"
+//! strategy = "data_driven"            # or "uncertainty", "mismatch"
+//! members = ["laser", "depth", "wifi"] # other [[localizers]] entries of this scenario
+//! training = "choosers_training.toml"  # or error_map = "error_map.csv" (data_driven only)
+//! training_runs = 1
+//! reseed = true
+//! ```
+//!
+//! Members are built as the chooser's own fresh instances, seeded like the stand-alone
+//! localizers of the same name (paired: until a re-seed they compute exactly what the
+//! stand-alone ones do, so the chooser's error is compared with theirs on the same draws);
+//! a chooser never disturbs the stand-alone instances. Keys:
+//! - both kinds: `members`, `reseed` (default true), `reseed_members` (the members it may
+//!   move; default all), `reseed_gate_sigmas` (3),
+//!   `reseed_min_distance_m` (0.5), `reseed_min_sigma_xy` (0.3), `reseed_min_sigma_theta`
+//!   (0.1), see [`ReseedParams`]; `anchor_gate` (default false): only members consistent
+//!   (by the re-seeding test) with every member outside `reseed_members` may be chosen, see
+//!   [`Chooser::set_anchor_gate`];
+//! - `chooser`: `strategy`; with `data_driven` exactly one of `error_map` (an [`ErrorMap`]
+//!   CSV, layers named like the members) or `training` (a scenario whose localizers are named
+//!   like the members, run `training_runs` times, default 1, with seeds derived from its own),
+//!   and `error_map_resolution` (m, default 2; training only) and `lookup_radius_cells`
+//!   (default 3);
+//! - `fused`: `training` and `training_runs` as above, `covariance_floor_m` (default 0.1; each member's floor in a group is its RMS
+//!   training error there, if larger),
+//!   `group_by` = "kind" (default: one weight vector per region kind) or "region" (per named
+//!   region), `min_group_samples` (default 50: a group with fewer training samples uses the
+//!   weights learnt from all samples).
+//!
+//! Training runs are memoised per process under the training scenario's full text, world and
+//! run count (as the WiFi survey is), so the choosers of one scenario share one training.
+
+use crate::error::ScenarioError;
+use crate::error_maps::accumulate;
+use crate::registry::{BuildContext, LocalizerRegistry};
+use crate::runner::{RunObserver, RunOptions, RunResult, SimStream, Tick};
+use crate::scenario::Scenario;
+use crate::seeds::derive_seed;
+use atrium_localization::chooser::{Chooser, ReseedParams, Strategy};
+use atrium_localization::error_map::ErrorMap;
+use atrium_localization::mixture::{log_density_xy, mixture_weights, MixtureGroup, RegionMixture};
+use atrium_localization::{Estimate, Localizer};
+use atrium_robots::Reading;
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// The localizer kinds built here (they cannot be members of one another).
+pub const KINDS: [&str; 2] = ["chooser", "fused"];
+
+const COMMON_KEYS: [&str; 8] = [
+    "members",
+    "anchor_gate",
+    "reseed",
+    "reseed_members",
+    "reseed_gate_sigmas",
+    "reseed_min_distance_m",
+    "reseed_min_sigma_xy",
+    "reseed_min_sigma_theta",
+];
+const CHOOSER_KEYS: [&str; 6] = [
+    "strategy",
+    "error_map",
+    "training",
+    "training_runs",
+    "error_map_resolution",
+    "lookup_radius_cells",
+];
+const FUSED_KEYS: [&str; 5] = [
+    "training",
+    "training_runs",
+    "covariance_floor_m",
+    "group_by",
+    "min_group_samples",
+];
+/// Keys only a data-driven chooser reads.
+const DATA_DRIVEN_KEYS: [&str; 5] = [
+    "error_map",
+    "training",
+    "training_runs",
+    "error_map_resolution",
+    "lookup_radius_cells",
+];
+/// At most this many training samples per group go into the convex program (evenly spaced).
+const MAX_MIXTURE_SAMPLES: usize = 3000;
+
+/// One training run: its result, and at every scored instant the estimates (with
+/// covariances) of the training scenario's localizers, in `names` order.
+pub struct TrainingRun {
+    pub result: RunResult,
+    pub estimates: Vec<Vec<Estimate>>,
+}
+
+/// Every run of a training scenario.
+pub struct Training {
+    pub scenario: Scenario,
+    pub names: Vec<String>,
+    pub runs: Vec<TrainingRun>,
+}
+
+impl Training {
+    /// The per-location error map of the runs (004 §3 Figure 2), cells of `resolution` m.
+    pub fn error_map(&self, resolution: f64) -> Result<ErrorMap, String> {
+        let (min, max) = self.scenario.world.bounds();
+        let mut map = ErrorMap::new(min, max, resolution, self.names.clone())?;
+        for run in &self.runs {
+            accumulate(&mut map, &run.result);
+        }
+        Ok(map)
+    }
+}
+
+struct Collect(Vec<Vec<Estimate>>);
+
+impl RunObserver for Collect {
+    fn instant(
+        &mut self,
+        _tick: &Tick,
+        _readings: &[Reading],
+        estimates: Option<&[Estimate]>,
+    ) -> Result<(), ScenarioError> {
+        if let Some(e) = estimates {
+            self.0.push(e.to_vec());
+        }
+        Ok(())
+    }
+}
+
+/// Runs `path` `runs` times (seeds derived from its own seed and the run index), without its
+/// choosers and expectations. Memoised per process (see the module docs).
+pub fn train(
+    registry: &LocalizerRegistry,
+    path: &Path,
+    runs: usize,
+) -> Result<Arc<Training>, String> {
+    type Slot = Arc<OnceLock<Result<Arc<Training>, String>>>;
+    static CACHE: OnceLock<Mutex<HashMap<String, Slot>>> = OnceLock::new();
+    let mut scenario = Scenario::load(path).map_err(|e| e.to_string())?;
+    // The registry's kinds are part of the key: the same text may name a user's kind.
+    let key = format!(
+        "{}\n{}\n{runs}\n{:?}",
+        scenario.text,
+        serde_json::to_string(&scenario.world).unwrap_or_default(),
+        registry
+    );
+    let slot = {
+        let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+        let mut map = cache.lock().unwrap_or_else(|p| p.into_inner());
+        map.entry(key).or_default().clone()
+    };
+    slot.get_or_init(|| {
+        // A chooser in the training scenario would train on it again: only single-sensor
+        // localizers are evaluated.
+        scenario
+            .localizers
+            .retain(|l| !KINDS.contains(&l.kind.as_str()));
+        scenario.expect = toml::Table::new();
+        if scenario.localizers.is_empty() {
+            return Err(format!(
+                "{}: has no localizers to train on besides choosers",
+                path.display()
+            ));
+        }
+        let mut out = Vec::with_capacity(runs);
+        for i in 0..runs {
+            let seed = derive_seed(scenario.seed, &format!("chooser_training/{i}"));
+            let mut stream = SimStream::new(&scenario, seed).map_err(|e| e.to_string())?;
+            let mut collect = Collect(Vec::new());
+            let result = registry
+                .run_stream(
+                    &scenario,
+                    seed,
+                    &mut stream,
+                    &scenario.events,
+                    RunOptions {
+                        observer: Some(&mut collect),
+                        ..Default::default()
+                    },
+                )
+                .map_err(|e| e.to_string())?;
+            out.push(TrainingRun {
+                result,
+                estimates: collect.0,
+            });
+        }
+        let names = scenario.localizers.iter().map(|l| l.name.clone()).collect();
+        Ok(Arc::new(Training {
+            scenario,
+            names,
+            runs: out,
+        }))
+    })
+    .clone()
+}
+
+/// Mixture weights per group of the world's regions (by kind or by name) learnt from
+/// `training` for `members` (indices of training localizers). Per group: each member's floor
+/// is its RMS position error over the group's samples (at least `covariance_floor_m`), then
+/// at every sample p_k = member k's floored Gaussian density at the true position, and
+/// [`mixture_weights`] over them. Groups with fewer than `min_samples` samples, and places in
+/// no region, take the group learnt from all samples.
+pub fn learn_region_mixture(
+    training: &Training,
+    members: &[usize],
+    covariance_floor_m: f64,
+    by_kind: bool,
+    min_samples: usize,
+) -> Result<RegionMixture, String> {
+    let world = &training.scenario.world;
+    let key_of = |r: &atrium_worlds::Region| -> String {
+        if by_kind {
+            serde_json::to_value(r.kind)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default()
+        } else {
+            r.name.clone()
+        }
+    };
+    // Every scored instant of every run: (truth, estimate per member).
+    let mut samples: Vec<([f64; 2], Vec<Estimate>)> = Vec::new();
+    let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for run in &training.runs {
+        for ((_, truth), est) in run.result.ground_truth.iter().zip(&run.estimates) {
+            let p = [truth.x, truth.y];
+            if let Some(r) = world.region_at(p) {
+                groups.entry(key_of(r)).or_default().push(samples.len());
+            }
+            samples.push((p, members.iter().map(|&k| est[k]).collect()));
+        }
+    }
+    let fit = |idx: &[usize]| -> Result<MixtureGroup, String> {
+        let k = members.len();
+        let mut sq = vec![0.0; k];
+        for &i in idx {
+            let (p, est) = &samples[i];
+            for (c, e) in est.iter().enumerate() {
+                sq[c] += (e.pose.x - p[0]).powi(2) + (e.pose.y - p[1]).powi(2);
+            }
+        }
+        let floors_m: Vec<f64> = sq
+            .iter()
+            .map(|s| {
+                let rms = (s / idx.len().max(1) as f64).sqrt();
+                if rms.is_finite() {
+                    rms.max(covariance_floor_m)
+                } else {
+                    covariance_floor_m
+                }
+            })
+            .collect();
+        // At most MAX_MIXTURE_SAMPLES rows, evenly spaced, each scaled by its largest
+        // likelihood (same optimum, well-conditioned).
+        let stride = idx.len().div_ceil(MAX_MIXTURE_SAMPLES).max(1);
+        let mut rows = Vec::with_capacity(idx.len() / stride + 1);
+        for &i in idx.iter().step_by(stride) {
+            let (p, est) = &samples[i];
+            let logs: Vec<f64> = est
+                .iter()
+                .zip(&floors_m)
+                .map(|(e, f)| log_density_xy([e.pose.x, e.pose.y], &e.covariance, *f, *p))
+                .collect();
+            let max = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if max.is_finite() {
+                rows.push(logs.iter().map(|l| (l - max).exp()).collect::<Vec<f64>>());
+            }
+        }
+        let weights = mixture_weights(&rows).map_err(|e| e.to_string())?;
+        Ok(MixtureGroup { weights, floors_m })
+    };
+    let all: Vec<usize> = (0..samples.len()).collect();
+    let default = fit(&all)?;
+    let mut regions = Vec::new();
+    for (g, idx) in &groups {
+        let group = if idx.len() >= min_samples {
+            fit(idx)?
+        } else {
+            default.clone()
+        };
+        for r in world.regions.iter().filter(|r| &key_of(r) == g) {
+            regions.push((r.polygon.clone(), group.clone()));
+        }
+    }
+    Ok(RegionMixture { regions, default })
+}
+
+/// Builds `kind = "chooser"` or `kind = "fused"`.
+pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError> {
+    let (spec, scenario, registry) = (ctx.spec, ctx.scenario, ctx.registry);
+    let file = &scenario.file;
+    let field = format!("localizers[{}]", spec.name);
+    let fused = spec.kind == "fused";
+    let err = |key: &str, msg: String| {
+        let f = if key.is_empty() {
+            field.clone()
+        } else {
+            format!("{field}.{key}")
+        };
+        ScenarioError::field(file, f, msg)
+    };
+    let own_keys: &[&str] = if fused { &FUSED_KEYS } else { &CHOOSER_KEYS };
+    for k in spec.params.keys() {
+        if !COMMON_KEYS.contains(&k.as_str()) && !own_keys.contains(&k.as_str()) {
+            let mut known: Vec<&str> = COMMON_KEYS.iter().chain(own_keys).copied().collect();
+            known.sort_unstable();
+            return Err(err(
+                k,
+                format!(
+                    "unknown key for a {} (known: {})",
+                    spec.kind,
+                    known.join(", ")
+                ),
+            ));
+        }
+    }
+    let p = &spec.params;
+    let float = |key: &str, default: f64| -> Result<f64, ScenarioError> {
+        match p.get(key) {
+            None => Ok(default),
+            Some(toml::Value::Float(f)) => Ok(*f),
+            Some(toml::Value::Integer(i)) => Ok(*i as f64),
+            Some(_) => Err(err(key, "must be a number".into())),
+        }
+    };
+    let count = |key: &str, default: usize, min: usize| -> Result<usize, ScenarioError> {
+        match p.get(key) {
+            None => Ok(default),
+            Some(toml::Value::Integer(i)) if *i >= min as i64 => Ok(*i as usize),
+            Some(_) => Err(err(key, format!("must be an integer >= {min}"))),
+        }
+    };
+    let text = |key: &str| -> Result<Option<String>, ScenarioError> {
+        match p.get(key) {
+            None => Ok(None),
+            Some(toml::Value::String(s)) if !s.trim().is_empty() => Ok(Some(s.clone())),
+            Some(_) => Err(err(key, "must be a non-empty string".into())),
+        }
+    };
+
+    // Members: other single-sensor [[localizers]] entries, each once.
+    let names: Vec<String> = match p.get("members") {
+        None => return Err(err("members", "required: a list of localizer names".into())),
+        Some(toml::Value::Array(a)) => a
+            .iter()
+            .map(|v| v.as_str().map(str::to_string))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| err("members", "must be a list of strings".into()))?,
+        Some(_) => return Err(err("members", "must be a list of strings".into())),
+    };
+    if names.is_empty() {
+        return Err(err(
+            "members",
+            "is empty: name at least one localizer".into(),
+        ));
+    }
+    let mut member_specs = Vec::with_capacity(names.len());
+    for (i, name) in names.iter().enumerate() {
+        let f = format!("members[{i}]");
+        if names[..i].contains(name) {
+            return Err(err(&f, format!("{name:?} is named twice")));
+        }
+        if name == &spec.name {
+            return Err(err(&f, format!("{name:?} is this localizer itself")));
+        }
+        let Some(m) = scenario.localizers.iter().find(|l| &l.name == name) else {
+            let known: Vec<&str> = scenario
+                .localizers
+                .iter()
+                .filter(|l| l.name != spec.name)
+                .map(|l| l.name.as_str())
+                .collect();
+            return Err(err(
+                &f,
+                format!(
+                    "names no [[localizers]] entry of this scenario (known: {})",
+                    known.join(", ")
+                ),
+            ));
+        };
+        if KINDS.contains(&m.kind.as_str()) {
+            return Err(err(
+                &f,
+                format!(
+                    "{name:?} is itself a {}: members must be single-sensor localizers",
+                    m.kind
+                ),
+            ));
+        }
+        member_specs.push(m);
+    }
+
+    let reseed = match p.get("reseed") {
+        None => true,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(err("reseed", "must be true or false".into())),
+    };
+    // Members re-seeding may move: all unless listed.
+    let reseedable: Vec<bool> = match p.get("reseed_members") {
+        None => vec![true; names.len()],
+        Some(toml::Value::Array(a)) => {
+            let listed = a
+                .iter()
+                .map(|v| v.as_str().map(str::to_string))
+                .collect::<Option<Vec<_>>>()
+                .ok_or_else(|| err("reseed_members", "must be a list of strings".into()))?;
+            for (i, n) in listed.iter().enumerate() {
+                if !names.contains(n) {
+                    return Err(err(
+                        &format!("reseed_members[{i}]"),
+                        format!("{n:?} is not one of the members ({})", names.join(", ")),
+                    ));
+                }
+            }
+            names.iter().map(|n| listed.contains(n)).collect()
+        }
+        Some(_) => return Err(err("reseed_members", "must be a list of strings".into())),
+    };
+    let anchor_gate = match p.get("anchor_gate") {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(err("anchor_gate", "must be true or false".into())),
+    };
+    if anchor_gate && reseedable.iter().all(|r| *r) {
+        return Err(err(
+            "anchor_gate",
+            "needs an anchor: a member left out of reseed_members".into(),
+        ));
+    }
+    let d = ReseedParams::default();
+    let reseed_params = ReseedParams {
+        gate_sigmas: float("reseed_gate_sigmas", d.gate_sigmas)?,
+        min_distance_m: float("reseed_min_distance_m", d.min_distance_m)?,
+        min_sigma_xy: float("reseed_min_sigma_xy", d.min_sigma_xy)?,
+        min_sigma_theta: float("reseed_min_sigma_theta", d.min_sigma_theta)?,
+    };
+    reseed_params.validate().map_err(|m| {
+        let (k, why) = m.split_once(' ').unwrap_or(("", m.as_str()));
+        err(k, why.to_string())
+    })?;
+
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let training_of = |runs: usize| -> Result<Option<Arc<Training>>, ScenarioError> {
+        match text("training")? {
+            None => Ok(None),
+            Some(t) => train(registry, &dir.join(&t), runs)
+                .map(Some)
+                .map_err(|m| err("training", m)),
+        }
+    };
+    // Indices of the members among the training scenario's localizers.
+    let layers_in = |available: &[String], what: &str, key: &str| {
+        names
+            .iter()
+            .map(|n| {
+                available.iter().position(|a| a == n).ok_or_else(|| {
+                    err(
+                        key,
+                        format!(
+                            "{what} has no localizer named {n:?} (has: {})",
+                            available.join(", ")
+                        ),
+                    )
+                })
+            })
+            .collect::<Result<Vec<usize>, _>>()
+    };
+
+    let strategy = if fused {
+        let runs = count("training_runs", 1, 1)?;
+        let floor = float("covariance_floor_m", 0.1)?;
+        if !(floor.is_finite() && floor > 0.0) {
+            return Err(err(
+                "covariance_floor_m",
+                format!("must be finite and > 0, got {floor}"),
+            ));
+        }
+        let by_kind = match text("group_by")?.as_deref() {
+            None | Some("kind") => true,
+            Some("region") => false,
+            Some(other) => {
+                return Err(err(
+                    "group_by",
+                    format!("unknown grouping {other:?} (known: kind, region)"),
+                ))
+            }
+        };
+        let min_samples = count("min_group_samples", 50, 1)?;
+        let training = training_of(runs)?.ok_or_else(|| {
+            err(
+                "training",
+                "required: a scenario whose localizers are named like the members".into(),
+            )
+        })?;
+        let idx = layers_in(&training.names, "the training scenario", "training")?;
+        let model = learn_region_mixture(&training, &idx, floor, by_kind, min_samples)
+            .map_err(|m| err("training", format!("mixture weights: {m}")))?;
+        Strategy::Fused {
+            model: Arc::new(model),
+        }
+    } else {
+        let strategy = text("strategy")?.ok_or_else(|| {
+            err(
+                "strategy",
+                "required: \"uncertainty\", \"mismatch\" or \"data_driven\"".into(),
+            )
+        })?;
+        if strategy != "data_driven" {
+            if let Some(k) = DATA_DRIVEN_KEYS.iter().find(|k| p.contains_key(**k)) {
+                return Err(err(
+                    k,
+                    "only a data_driven chooser takes this key".to_string(),
+                ));
+            }
+        }
+        match strategy.as_str() {
+            "uncertainty" => Strategy::Uncertainty,
+            "mismatch" => Strategy::Mismatch,
+            "data_driven" => {
+                let radius_cells = count("lookup_radius_cells", 3, 0)?;
+                let map = match (text("error_map")?, p.contains_key("training")) {
+                    (Some(_), true) => {
+                        return Err(err(
+                            "",
+                            "give either `error_map` or `training`, not both".into(),
+                        ))
+                    }
+                    (None, false) => {
+                        return Err(err(
+                            "error_map",
+                            "a data_driven chooser needs `error_map = \"<file>.csv\"` or \
+                             `training = \"<scenario>.toml\"`"
+                                .into(),
+                        ))
+                    }
+                    (Some(m), false) => {
+                        if p.contains_key("error_map_resolution") || p.contains_key("training_runs")
+                        {
+                            return Err(err(
+                                "error_map",
+                                "error_map_resolution and training_runs go with `training`".into(),
+                            ));
+                        }
+                        let path = dir.join(&m);
+                        let csv = std::fs::read_to_string(&path).map_err(|e| {
+                            err("error_map", format!("cannot read {}: {e}", path.display()))
+                        })?;
+                        ErrorMap::from_csv(&csv)
+                            .map_err(|e| err("error_map", format!("{}: {e}", path.display())))?
+                    }
+                    (None, true) => {
+                        let runs = count("training_runs", 1, 1)?;
+                        let res = float("error_map_resolution", 2.0)?;
+                        if !(res.is_finite() && res > 0.0) {
+                            return Err(err(
+                                "error_map_resolution",
+                                format!("must be finite and > 0, got {res}"),
+                            ));
+                        }
+                        let training = training_of(runs)?
+                            .ok_or_else(|| err("training", "must be a non-empty string".into()))?;
+                        training
+                            .error_map(res)
+                            .map_err(|m| err("error_map_resolution", m))?
+                    }
+                };
+                let key = if p.contains_key("training") {
+                    "training"
+                } else {
+                    "error_map"
+                };
+                let layers = layers_in(&map.localizers, "the error map", key)?;
+                Strategy::DataDriven {
+                    map: Arc::new(map),
+                    layers,
+                    radius_cells,
+                }
+            }
+            other => {
+                return Err(err(
+                    "strategy",
+                    format!(
+                        "unknown strategy {other:?} (known: uncertainty, mismatch, data_driven)"
+                    ),
+                ))
+            }
+        }
+    };
+
+    let mut members = Vec::with_capacity(member_specs.len());
+    for m in member_specs {
+        // Seeded like the stand-alone localizer of the same name (see `localizer_seed`).
+        members.push(ctx.build(m)?);
+    }
+    let mut chooser = Chooser::new(
+        &spec.name,
+        members,
+        strategy,
+        reseed.then_some(reseed_params),
+    )
+    .map_err(|e| err("", e.to_string()))?;
+    chooser
+        .set_reseedable(reseedable)
+        .map_err(|e| err("reseed_members", e.to_string()))?;
+    chooser.set_anchor_gate(anchor_gate);
+    Ok(Box::new(chooser))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use atrium_localization::localizer::reset_localizer;
+    use atrium_robots::Pose2;
+
+    /// A scenario with laser, depth and WiFi localizers and `extra` appended, written to a
+    /// temporary folder (paths absolute, so side files can sit beside it).
+    fn scenario_with(extra: &str, tag: &str) -> Result<Scenario, ScenarioError> {
+        let root = env!("CARGO_MANIFEST_DIR");
+        let dir = std::env::temp_dir().join(format!("atrium_chooser_{tag}_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let text = format!(
+            r#"
+name = "t"
+world = "{root}/../worlds/campus.toml"
+robot = "{root}/../robots/urdf/pioneer3dx.urdf"
+duration_s = 1.0
+[start]
+pose = [20.0, 20.0, 0.0]
+[route]
+waypoints = [[25.0, 20.0]]
+[depth_cameras.kinect]
+preset = "kinect"
+mount = "camera"
+decimation = 4
+[[localizers]]
+name = "laser"
+kind = "cgr_laser"
+particles = 20
+[[localizers]]
+name = "depth"
+kind = "cgr_depth"
+particles = 20
+fspf = {{ eta = 15 }}
+[[localizers]]
+name = "wifi"
+kind = "wifi"
+graph = "{dir}/missing_graph_is_not_needed_here.json"
+{extra}
+"#,
+            dir = dir.display()
+        );
+        Scenario::from_toml_str(&text, &dir.join("s.toml"))
+    }
+
+    fn build_named(s: &Scenario, name: &str) -> Result<Box<dyn Localizer>, ScenarioError> {
+        let spec = s.localizers.iter().find(|l| l.name == name).unwrap();
+        crate::LocalizerRegistry::with_builtins().build(
+            spec,
+            s,
+            &mut crate::maps::SharedMaps::default(),
+            1,
+        )
+    }
+
+    fn error_of(extra: &str, tag: &str) -> String {
+        let s = scenario_with(extra, tag).unwrap();
+        match build_named(&s, "c") {
+            Ok(_) => panic!("{tag}: built"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn bad_parameters_are_errors_naming_the_field() {
+        let cases = [
+            (
+                "unknown_member",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\", \"sonar\"]",
+                "localizers[c].members[1]",
+                "names no [[localizers]] entry",
+            ),
+            (
+                "chooser_member",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\", \"d\"]\n[[localizers]]\nname = \"d\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"laser\"]",
+                "localizers[c].members[1]",
+                "is itself a chooser",
+            ),
+            (
+                "empty",
+                "[[localizers]]\nname = \"c\"\nkind = \"fused\"\nmembers = []",
+                "localizers[c].members",
+                "is empty",
+            ),
+            (
+                "strategy",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"coin_flip\"\nmembers = [\"laser\"]",
+                "localizers[c].strategy",
+                "unknown strategy \"coin_flip\"",
+            ),
+            (
+                "no_strategy",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nmembers = [\"laser\"]",
+                "localizers[c].strategy",
+                "required",
+            ),
+            (
+                "missing_map",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"laser\"]\nerror_map = \"nowhere.csv\"",
+                "localizers[c].error_map",
+                "cannot read",
+            ),
+            (
+                "no_map",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"laser\"]",
+                "localizers[c].error_map",
+                "needs",
+            ),
+            (
+                "map_key_elsewhere",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\"]\nerror_map = \"x.csv\"",
+                "localizers[c].error_map",
+                "only a data_driven chooser",
+            ),
+            (
+                "unknown_key",
+                "[[localizers]]\nname = \"c\"\nkind = \"fused\"\nmembers = [\"laser\"]\nstrategy = \"uncertainty\"",
+                "localizers[c].strategy",
+                "unknown key for a fused",
+            ),
+            (
+                "self",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"c\"]",
+                "localizers[c].members[0]",
+                "itself",
+            ),
+            (
+                "twice",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"laser\", \"laser\"]",
+                "localizers[c].members[1]",
+                "named twice",
+            ),
+            (
+                "fused_needs_training",
+                "[[localizers]]\nname = \"c\"\nkind = \"fused\"\nmembers = [\"laser\"]",
+                "localizers[c].training",
+                "required",
+            ),
+            (
+                "reseed_members",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"laser\"]\nreseed_members = [\"depth\"]",
+                "localizers[c].reseed_members[0]",
+                "not one of the members",
+            ),
+            (
+                "gate",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"mismatch\"\nmembers = [\"laser\"]\nreseed_gate_sigmas = -2.0",
+                "localizers[c].reseed_gate_sigmas",
+                "must be finite and >= 0",
+            ),
+            (
+                "anchor_gate_type",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\"]\nanchor_gate = \"yes\"",
+                "localizers[c].anchor_gate",
+                "must be true or false",
+            ),
+            (
+                "anchor_gate_without_anchor",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\", \"depth\"]\nanchor_gate = true",
+                "localizers[c].anchor_gate",
+                "needs an anchor",
+            ),
+        ];
+        for (tag, extra, field, msg) in cases {
+            let e = error_of(extra, tag);
+            assert!(e.contains(&format!("{field}: ")), "{tag}: {e}");
+            assert!(e.contains(msg), "{tag}: {e}");
+        }
+    }
+
+    #[test]
+    fn data_driven_reads_an_error_map_csv_and_maps_layers_by_name() {
+        // Layers in another order than the members, and one extra layer.
+        let mut map = ErrorMap::new(
+            [0.0, 0.0],
+            [60.0, 40.0],
+            2.0,
+            vec!["other".into(), "depth".into(), "laser".into()],
+        )
+        .unwrap();
+        map.add(1, [20.5, 20.5], 0.3);
+        map.add(2, [20.5, 20.5], 0.02);
+        let s = scenario_with("", "csv").unwrap();
+        let dir = s.file.parent().unwrap().to_path_buf();
+        std::fs::write(dir.join("map.csv"), map.to_csv()).unwrap();
+        let extra = "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"depth\", \"laser\"]\nerror_map = \"map.csv\"";
+        let s = scenario_with(extra, "csv").unwrap();
+        let mut c = build_named(&s, "c").unwrap();
+        // Before any update the first member is the output; after one, the map's choice.
+        assert_eq!(chooser(&mut *c).chosen(), 0);
+        let scan = atrium_robots::LaserScan {
+            stamp: 0.1,
+            sensor: "laser".into(),
+            mount: Pose2::default(),
+            angle_min: 0.0,
+            angle_increment: 0.1,
+            range_min: 0.1,
+            range_max: 8.0,
+            ranges: vec![],
+        };
+        c.update(&Reading::Laser(scan)).unwrap();
+        assert_eq!(chooser(&mut *c).chosen(), 1, "laser: 2 cm in the map");
+        match chooser(&mut *c).strategy() {
+            Strategy::DataDriven { map, layers, .. } => {
+                let named: Vec<&str> = layers.iter().map(|&l| map.localizers[l].as_str()).collect();
+                assert_eq!(named, ["depth", "laser"]);
+            }
+            other => panic!("{other:?}"),
+        }
+        // A member the map has no layer for is an error naming error_map.
+        let extra = "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"wifi\"]\nerror_map = \"map.csv\"";
+        let e = error_of(extra, "csv");
+        assert!(
+            e.contains("localizers[c].error_map: the error map has no localizer named \"wifi\""),
+            "{e}"
+        );
+    }
+
+    fn chooser(l: &mut dyn Localizer) -> &Chooser {
+        l.capabilities()
+            .unwrap()
+            .as_any()
+            .unwrap()
+            .downcast_ref::<Chooser>()
+            .unwrap()
+    }
+
+    #[test]
+    fn a_cgr_filter_is_reseeded_where_it_is_told() {
+        let s = scenario_with("", "cgr").unwrap();
+        let mut l = build_named(&s, "laser").unwrap();
+        assert!(l.estimate().pose.distance(&Pose2::new(20.0, 20.0, 0.0)) < 0.1);
+        let to = Pose2::new(40.0, 25.0, 1.0);
+        assert!(reset_localizer(l.as_mut(), to, [0.5, 0.5, 0.1]));
+        let e = l.estimate();
+        // The mean of 20 draws with σ = 0.5 m has a standard error of 0.11 m per axis: 0.45 m
+        // is about four of them, while the old pose is 20 m away.
+        assert!(e.pose.distance(&to) < 0.45, "{:?}", e.pose);
+        // 20 particles drawn with σ = 0.5 m: the spread is of that order.
+        let sx = e.covariance[(0, 0)].sqrt();
+        assert!((0.2..1.0).contains(&sx), "{sx}");
+        assert!(!reset_localizer(
+            l.as_mut(),
+            Pose2::new(f64::NAN, 0.0, 0.0),
+            [0.5, 0.5, 0.1]
+        ));
+    }
+}

@@ -1,0 +1,265 @@
+//! The localizer registry: every `kind` a scenario's `[[localizers]]` entry may name, and the
+//! factory that builds it. The built-in kinds are registered through the same [`register`]
+//! call as a user's (see `builtins`), so a user crate adds its own localizers to scenarios,
+//! sweeps and replays without editing Atrium:
+//!
+//! ```ignore
+//! let mut registry = LocalizerRegistry::with_builtins();
+//! registry.register("mine", |ctx: &mut BuildContext| {
+//!     Ok(Box::new(MyFilter::new(ctx.spec.name.clone(), ctx.scenario.start)) as _)
+//! })?;
+//! let result = registry.run(&Scenario::load(path)?, RunOptions::default())?;
+//! ```
+//!
+//! [`register`]: LocalizerRegistry::register
+
+use crate::error::ScenarioError;
+use crate::maps::SharedMaps;
+use crate::runner::{run_localizers, ReadingStream, RunOptions, RunResult, SimStream};
+use crate::scenario::{Event, LocalizerSpec, Scenario};
+use atrium_localization::Localizer;
+use serde::de::DeserializeOwned;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// What a factory gets to build one localizer of a scenario.
+pub struct BuildContext<'a> {
+    /// The `[[localizers]]` entry: its `name`, `kind` and every other key in `params`.
+    pub spec: &'a LocalizerSpec,
+    pub scenario: &'a Scenario,
+    /// Maps exported from the world, shared with the other localizers of the run.
+    pub maps: &'a mut SharedMaps,
+    /// The run's seed; [`BuildContext::seed`] is this localizer's own.
+    pub run_seed: u64,
+    /// The registry building this localizer (a chooser builds its members through it).
+    pub registry: &'a LocalizerRegistry,
+}
+
+impl BuildContext<'_> {
+    /// This localizer's seed: derived from the run's seed and its name (see
+    /// [`localizer_seed`]).
+    pub fn seed(&self) -> u64 {
+        localizer_seed(self.run_seed, &self.spec.name)
+    }
+
+    /// The field path of this localizer in error messages: `localizers[NAME]`.
+    pub fn field(&self) -> String {
+        format!("localizers[{}]", self.spec.name)
+    }
+
+    /// Bad input in this localizer's table: names the scenario file and
+    /// `localizers[NAME].key` (or the table itself when `key` is empty).
+    pub fn error(&self, key: &str, msg: impl Into<String>) -> ScenarioError {
+        let field = if key.is_empty() {
+            self.field()
+        } else {
+            format!("{}.{key}", self.field())
+        };
+        ScenarioError::field(&self.scenario.file, field, msg)
+    }
+
+    /// The entry's parameters (every key but `name` and `kind`) as `T`; unknown keys and
+    /// wrong types are errors naming the field when `T` denies unknown fields.
+    pub fn params<T: DeserializeOwned>(&self) -> Result<T, ScenarioError> {
+        toml::Value::Table(self.spec.params.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| self.error("", e.message().to_string()))
+    }
+
+    /// A path given in this localizer's table, relative to the scenario file.
+    pub fn path(&self, rel: &str) -> std::path::PathBuf {
+        self.scenario
+            .file
+            .parent()
+            .unwrap_or_else(|| Path::new("."))
+            .join(rel)
+    }
+
+    /// Builds another localizer of the same run (a chooser's member) through the registry.
+    pub fn build(&mut self, spec: &LocalizerSpec) -> Result<Box<dyn Localizer>, ScenarioError> {
+        self.registry
+            .build(spec, self.scenario, self.maps, self.run_seed)
+    }
+}
+
+/// The seed of the localizer named `name` in a run seeded `run_seed`. A chooser's member gets
+/// the seed of the stand-alone localizer of the same name, so the two see the same random
+/// draws and a comparison between them is paired (common random numbers).
+pub fn localizer_seed(run_seed: u64, name: &str) -> u64 {
+    crate::seeds::derive_seed(run_seed, &format!("localizer/{name}"))
+}
+
+/// Builds the localizers of one `kind`. Any `Fn(&mut BuildContext) -> Result<Box<dyn
+/// Localizer>, ScenarioError>` is one.
+pub trait LocalizerFactory: Send + Sync {
+    fn build(&self, ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError>;
+}
+
+impl<F> LocalizerFactory for F
+where
+    F: Fn(&mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError> + Send + Sync,
+{
+    fn build(&self, ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError> {
+        self(ctx)
+    }
+}
+
+/// A registration the registry refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RegistryError {
+    #[error("localizer kind {0:?} is registered already: a registry takes one factory per kind")]
+    Duplicate(String),
+    #[error(
+        "localizer kind {0:?} is not a valid name: use letters, digits, '_' and '-', \
+         starting with a letter"
+    )]
+    BadName(String),
+}
+
+/// The localizer kinds a run can build, by name. Cheap to clone (factories are shared).
+#[derive(Clone, Default)]
+pub struct LocalizerRegistry {
+    kinds: BTreeMap<String, Arc<dyn LocalizerFactory>>,
+}
+
+impl std::fmt::Debug for LocalizerRegistry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_set().entries(self.kinds.keys()).finish()
+    }
+}
+
+impl LocalizerRegistry {
+    /// A registry with no kinds (see `LocalizerRegistry::with_builtins` for Atrium's own).
+    pub fn empty() -> Self {
+        Self::default()
+    }
+
+    /// Adds `kind`, built by `factory`. A kind registered already is refused, so two crates
+    /// cannot silently replace each other's localizer.
+    pub fn register(
+        &mut self,
+        kind: &str,
+        factory: impl LocalizerFactory + 'static,
+    ) -> Result<&mut Self, RegistryError> {
+        let valid = kind.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+            && kind
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !valid {
+            return Err(RegistryError::BadName(kind.to_string()));
+        }
+        if self.kinds.contains_key(kind) {
+            return Err(RegistryError::Duplicate(kind.to_string()));
+        }
+        self.kinds.insert(kind.to_string(), Arc::new(factory));
+        Ok(self)
+    }
+
+    /// The registered kinds, sorted.
+    pub fn kinds(&self) -> impl Iterator<Item = &str> {
+        self.kinds.keys().map(String::as_str)
+    }
+
+    pub fn contains(&self, kind: &str) -> bool {
+        self.kinds.contains_key(kind)
+    }
+
+    /// Every `[[localizers]]` kind of `scenario` is registered and every `[expect]` key is
+    /// known (checked before a run or a sweep starts, so a typo costs no simulation).
+    pub fn check(&self, scenario: &Scenario) -> Result<(), ScenarioError> {
+        for spec in &scenario.localizers {
+            self.factory(spec, scenario)?;
+        }
+        crate::expect::parse_expectations(scenario)?;
+        Ok(())
+    }
+
+    fn factory(
+        &self,
+        spec: &LocalizerSpec,
+        scenario: &Scenario,
+    ) -> Result<&Arc<dyn LocalizerFactory>, ScenarioError> {
+        self.kinds.get(&spec.kind).ok_or_else(|| {
+            let known: Vec<&str> = self.kinds().collect();
+            ScenarioError::field(
+                &scenario.file,
+                format!("localizers[{}].kind", spec.name),
+                format!(
+                    "unknown localizer kind {:?} (registered: {})",
+                    spec.kind,
+                    known.join(", ")
+                ),
+            )
+        })
+    }
+
+    /// Builds the localizer `spec` names, seeded from `run_seed` (see [`localizer_seed`]).
+    pub fn build(
+        &self,
+        spec: &LocalizerSpec,
+        scenario: &Scenario,
+        maps: &mut SharedMaps,
+        run_seed: u64,
+    ) -> Result<Box<dyn Localizer>, ScenarioError> {
+        let factory = self.factory(spec, scenario)?.clone();
+        let mut ctx = BuildContext {
+            spec,
+            scenario,
+            maps,
+            run_seed,
+            registry: self,
+        };
+        factory.build(&mut ctx)
+    }
+
+    /// Builds every localizer of `scenario`, in scenario order.
+    pub fn build_all(
+        &self,
+        scenario: &Scenario,
+        run_seed: u64,
+    ) -> Result<Vec<Box<dyn Localizer>>, ScenarioError> {
+        self.check(scenario)?;
+        let mut maps = SharedMaps::default();
+        scenario
+            .localizers
+            .iter()
+            .map(|spec| self.build(spec, scenario, &mut maps, run_seed))
+            .collect()
+    }
+
+    /// Runs `scenario` live with its localizers built from this registry, scores them and
+    /// checks its expectations.
+    pub fn run(
+        &self,
+        scenario: &Scenario,
+        options: RunOptions,
+    ) -> Result<RunResult, ScenarioError> {
+        let seed = options.seed.unwrap_or(scenario.seed);
+        // The simulation first: a start inside a wall is reported before any training run.
+        let mut stream = SimStream::new(scenario, seed)?;
+        let localizers = self.build_all(scenario, seed)?;
+        run_localizers(
+            scenario,
+            seed,
+            &mut stream,
+            &scenario.events,
+            localizers,
+            options,
+        )
+    }
+
+    /// Feeds `stream` (a live run or a recording whose run went through `events`) to the
+    /// localizers of `scenario` built from this registry.
+    pub fn run_stream(
+        &self,
+        scenario: &Scenario,
+        seed: u64,
+        stream: &mut dyn ReadingStream,
+        events: &[Event],
+        options: RunOptions,
+    ) -> Result<RunResult, ScenarioError> {
+        let localizers = self.build_all(scenario, seed)?;
+        run_localizers(scenario, seed, stream, events, localizers, options)
+    }
+}
