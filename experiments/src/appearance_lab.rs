@@ -1,4 +1,4 @@
-//! The illumination experiment of Porta, Verbeek and Kröse (seeds/000 §VII) in the bundled
+//! The illumination experiment of Porta, Verbeek and Kröse ([000] §VII) in the bundled
 //! lab (`worlds/lab.toml`): a training set of intensity images and sparse disparity maps on a
 //! 50 cm grid over a 9 × 5 m area with 10° rotations under `tube` light; PCA (intensity) and
 //! EM-PCA (disparity) features from N randomly chosen training images; then, along a test

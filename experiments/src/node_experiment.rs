@@ -1,4 +1,4 @@
-//! Node routes and the landmark-filter experiment of /work/shared/seeds/002_4f056f43b5d8a234.txt
+//! Node routes and the landmark-filter experiment of [002]
 //! (§IV-A, Table II).
 //!
 //! - `[route] controller = "nodes"`, `nodes = [...]` (and optionally `gamma_theta`, `gamma_d`)

@@ -1,4 +1,4 @@
-//! The cameras of seeds/001 in recordings (issue 5): the bundled `omni_lab` scenario with an
+//! The cameras of [001] in recordings (issue 5): the bundled `omni_lab` scenario with an
 //! upward ceiling camera added, recorded to MCAP, has its panoramas and ceiling images as
 //! `mono8` RawImages on `/image/<camera>` with the projection named in the channel metadata;
 //! they decode back into exactly the readings the simulator produced, and replaying the file

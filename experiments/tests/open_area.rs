@@ -1,4 +1,4 @@
-//! The open-area experiment of 004_5bf198ec52fcbc0c.txt §3, reduced: 6 trials of the bundled
+//! The open-area experiment of [004] §3, reduced: 6 trials of the bundled
 //! sweep's base scenario (scenarios/open_area.toml, the ~35 m jittered loop through the
 //! atrium's interior and back; the loop is kept at full length because the CGR filters' end
 //! error is the drift accumulated out of sensor range, which a shorter loop would hide).

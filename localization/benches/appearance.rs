@@ -1,4 +1,4 @@
-//! Appearance features (issue 5 item 7; seeds/000 §V: "under 0.1 s" per map): the EM-PCA
+//! Appearance features (issue 5 item 7; [000] §V: "under 0.1 s" per map): the EM-PCA
 //! features y = (σ²I + C_o C_oᵀ)⁻¹ C_o z_o of one new disparity map with d = 20 and
 //! D = 19200 (160 × 120) with ~20 % missing, from a model fitted on N = 100 seeded low-rank
 //! maps.

@@ -1,4 +1,4 @@
-//! Appearance-based localization (seeds/000 §II and §VI): a map of features of training
+//! Appearance-based localization ([000] §II and §VI): a map of features of training
 //! images taken at known poses, the nearest-neighbour sensor model of eq. 2 and the
 //! disjunctive fusion of intensity and disparity sensor models.
 //!

@@ -1,5 +1,5 @@
 //! Appearance-based localization with the auxiliary particle filter that Porta, Verbeek and
-//! Kröse use (seeds/000_325c233fe0a4c5be.txt §VI, last paragraph: "the particle filter we use
+//! Kröse use ([000] §VI, last paragraph: "the particle filter we use
 //! [7], [10]" — Pitt and Shephard's auxiliary particle filter as Vlassis, Terwijn and Kröse
 //! apply it to the nearest-neighbour sensor model).
 //!

@@ -1,4 +1,4 @@
-//! Monte Carlo localization with ceiling brightness (seeds/001_c53d039653973f41.txt, first
+//! Monte Carlo localization with ceiling brightness ([001], first
 //! part, after Dellaert et al.'s museum robot): the map is the brightness of the ceiling over
 //! the floor, sampled from training readings of an upward-looking camera; a reading is one
 //! brightness value; each particle is weighted by how well the map's brightness above it

@@ -1,4 +1,4 @@
-//! Corrective Gradient Refinement (CGR): 004_5bf198ec52fcbc0c.txt §2.1 (after Biswas, Coltin
+//! Corrective Gradient Refinement (CGR): [004] §2.1 (after Biswas, Coltin
 //! & Veloso, IROS 2011), on the world's vector map, for a laser rangefinder and, through FSPF
 //! (§2.2, Algorithm 1), for a depth camera. Per observation:
 //!

@@ -1,4 +1,4 @@
-//! Choosing between sensors (004_5bf198ec52fcbc0c.txt §4): a localizer that runs several
+//! Choosing between sensors ([004] §4): a localizer that runs several
 //! member localizers side by side (laser CGR, depth CGR, WiFi, ...), feeds every reading to
 //! all of them (each uses its own sensor) and at every sensor update outputs the estimate of
 //! the member it chooses:

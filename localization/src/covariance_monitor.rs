@@ -1,5 +1,5 @@
 //! Automatic checks of the EKF-SLAM map-covariance behaviour that Kozlov, MacDonald and
-//! Wünsche visualise (seeds/003_050d61ffc79b029e.txt §2.2 and §4): the relative covariance
+//! Wünsche visualise ([003] §2.2 and §4): the relative covariance
 //! of every feature pair (eq. 12–13),
 //!
 //! d_ij = f_i − f_j,   P_d = P_ii + P_jj − P_ij − P_ijᵀ,

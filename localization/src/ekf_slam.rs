@@ -1,5 +1,5 @@
 //! Point-feature EKF-SLAM as written in Kozlov, MacDonald and Wünsche, "Covariance
-//! Visualisations for Simultaneous Localisation and Mapping" (seeds/003_050d61ffc79b029e.txt
+//! Visualisations for Simultaneous Localisation and Mapping" ([003]
 //! §2.1, eq. 1–11), with its covariance checks (§2.2, eq. 12–13) run after every update by a
 //! [`CovarianceMonitor`].
 //!

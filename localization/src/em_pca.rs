@@ -1,5 +1,5 @@
 //! Principal components of data with missing values by Expectation-Maximization, exactly as
-//! Porta, Verbeek and Kröse (seeds/000_325c233fe0a4c5be.txt §V), for sparse disparity maps.
+//! Porta, Verbeek and Kröse ([000] §V), for sparse disparity maps.
 //!
 //! Model (000 §V): y ~ N(0, I_d), z | y ~ N(Cᵀ y, σ² I_D), C the d × D projection matrix. The
 //! E step factors q(y, z_h) = q(y) q(z_h): one covariance Σ_y = (I + σ⁻² C Cᵀ)⁻¹ shared by all

@@ -1,4 +1,4 @@
-//! Per-location error maps (seeds/004_5bf198ec52fcbc0c.txt §3, Figure 2): the mean
+//! Per-location error maps ([004] §3, Figure 2): the mean
 //! localization error of each localizer in every cell of a grid over the floor, accumulated
 //! over many runs. The data-driven sensor choice of 004 §4.3 looks the map up at the current
 //! estimate; sweeps write it as CSV and PNG.

@@ -1,6 +1,6 @@
 //! Where a robot can be: the free space of an occupancy grid, less the outside of the building.
 //!
-//! The WiFi localizer of 004_5bf198ec52fcbc0c.txt §2.3 builds on graph-based WiFi localization
+//! The WiFi localizer of [004] §2.3 builds on graph-based WiFi localization
 //! ("fast, accurate robot localization when constrained to a graph"): its particles live on
 //! the navigation graph, never in walls or outside the building. Our WiFi graph is a regular
 //! lattice over the whole map, so the constraint comes from the occupancy grid instead: a

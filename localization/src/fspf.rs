@@ -1,4 +1,4 @@
-//! Fast Sampling Plane Filtering (FSPF): 004_5bf198ec52fcbc0c.txt §2.2, Algorithm 1, with
+//! Fast Sampling Plane Filtering (FSPF): [004] §2.2, Algorithm 1, with
 //! Table 1's parameters as defaults. From a depth image it samples random neighbourhoods,
 //! fits a plane through three points in each, checks the plane by local RANSAC over a window
 //! the size of a plane of S metres at that depth, and keeps the inliers of the accepted

@@ -1,5 +1,5 @@
 //! Gaussian-process regression in the plane with a squared-exponential kernel, for the WiFi
-//! graph of 004_5bf198ec52fcbc0c.txt §2.3 (RSSI mean and variance learnt from samples
+//! graph of [004] §2.3 (RSSI mean and variance learnt from samples
 //! collected while driving; the GP formulation follows Rasmussen & Williams, *Gaussian
 //! Processes for Machine Learning*, 2006, Algorithm 2.1 and eq. 2.30).
 //!

@@ -1,5 +1,5 @@
 //! The recursive Bayesian landmark filter of Theodoridis et al.,
-//! /work/shared/seeds/002_4f056f43b5d8a234.txt: node-based odometry (Table I) whose pose is
+//! [002]: node-based odometry (Table I) whose pose is
 //! reset to a node when the laser recognises the landmark there (passive localisation,
 //! Algorithm 1).
 //!

@@ -1,7 +1,7 @@
 //! The vector map (line segments) prepared for point-to-line correspondences: each segment's
 //! unit normal, and a grid that lists, per cell, the few segments nearest to it, so that the
 //! nearest segment to a point is found by checking a handful of candidates instead of all of
-//! them. Used by CGR (004_5bf198ec52fcbc0c.txt §2.1–2.2), whose observation model and its
+//! them. Used by CGR ([004] §2.1–2.2), whose observation model and its
 //! gradient are built on point-to-line distances to the map.
 
 use crate::error::LocalizationError;

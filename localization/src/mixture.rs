@@ -1,4 +1,4 @@
-//! Mixture weights of the fused localizer (issue 9, beyond 004_5bf198ec52fcbc0c.txt §4): given
+//! Mixture weights of the fused localizer (issue 9, beyond [004] §4): given
 //! samples t with p_{k,t}, member k's likelihood of the true position at t, the weights w on
 //! the simplex maximising Σ_t log Σ_k w_k p_{k,t}. The objective is concave, so this is a
 //! convex program; it is solved with clarabel's interior point method on exponential cones:

@@ -1,4 +1,4 @@
-//! The sensing-mismatch measure of 004_5bf198ec52fcbc0c.txt §4.2: how well the observation
+//! The sensing-mismatch measure of [004] §4.2: how well the observation
 //! likelihood P(l|s) overlaps the belief Bel(l), estimated as in Augmented MCL (Thrun et al.,
 //! Probabilistic Robotics Table 8.3) by the mean unnormalised importance weight of an update,
 //! tracked by a short-term and a long-term average; their ratio w_fast / w_slow is the fit.

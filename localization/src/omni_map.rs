@@ -1,4 +1,4 @@
-//! The omnicam eigenimage map of seeds/001_c53d039653973f41.txt (second part): panoramic
+//! The omnicam eigenimage map of [001] (second part): panoramic
 //! training images on a grid, each also taken at R rotation angles ("each of these images was
 //! rotated to 32 different angles (11.25 degree resolution)"), eigenimages of all of them by
 //! the snapshot trick of Turk ([`crate::pca`], `PcaMethod::Snapshot`), every sample projected

@@ -1,4 +1,4 @@
-//! Monte Carlo localization on the omnicam eigenimage map of seeds/001_c53d039653973f41.txt
+//! Monte Carlo localization on the omnicam eigenimage map of [001]
 //! (second part, its last paragraph: "the robot takes an omnicam image from its current
 //! position, projects the image to an l-dimensional vector using P, and calculates the sum of
 //! square differences for each point of the map to generate an energy function. This energy

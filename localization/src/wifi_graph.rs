@@ -1,4 +1,4 @@
-//! The Gaussian-process-learnt WiFi graph of 004_5bf198ec52fcbc0c.txt §2.3: for every access
+//! The Gaussian-process-learnt WiFi graph of [004] §2.3: for every access
 //! point, a GP (squared-exponential kernel plus noise, hyperparameters by marginal likelihood,
 //! see [`crate::gp`]) learnt offline from (position, scan) samples collected while driving,
 //! evaluated at the nodes of a regular graph (mean and variance per node), and bicubically

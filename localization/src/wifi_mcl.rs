@@ -1,4 +1,4 @@
-//! WiFi localization with the GP-learnt WiFi graph (004_5bf198ec52fcbc0c.txt §2.3, eq. 1–2):
+//! WiFi localization with the GP-learnt WiFi graph ([004] §2.3, eq. 1–2):
 //! a particle filter with the odometry motion model (Thrun et al. Table 5.6) whose
 //! observation likelihood comes from the graph's bicubically interpolated mean and variance.
 //!

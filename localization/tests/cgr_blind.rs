@@ -1,4 +1,4 @@
-//! CGR where its sensor sees nothing (the open area of 004_5bf198ec52fcbc0c.txt §3: walls
+//! CGR where its sensor sees nothing (the open area of [004] §3: walls
 //! beyond the laser's range): the estimate must follow the odometry, not freeze at the last
 //! pose where something was seen.
 

@@ -1,5 +1,5 @@
 //! CGR in an open area with a few stray laser returns (the open-area failure of
-//! 004_5bf198ec52fcbc0c.txt §3 as it showed in the sweeps): the point-to-line likelihood has
+//! [004] §3 as it showed in the sweeps): the point-to-line likelihood has
 //! no term for beams that return nothing, so a handful of stray points would reward the
 //! particles at the fringe of a wide cloud that place them on a wall the laser does not see,
 //! and pull the whole cloud there. Observations with fewer than `min_points` points are not

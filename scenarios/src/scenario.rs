@@ -360,6 +360,46 @@ fn clutter_within(world: &World, n: usize, p: [f64; 2], margin: f64) -> Option<u
 }
 
 impl Scenario {
+    /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
+    /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
+    /// its `[expect.<name>]` table (may be empty). Paths in `params` resolve against the
+    /// scenario file's folder, so give absolute ones for files of your own crate.
+    pub fn add_localizer(
+        &mut self,
+        name: &str,
+        kind: &str,
+        params: toml::Table,
+        expect: toml::Table,
+    ) -> Result<&mut Self, ScenarioError> {
+        let field = format!("localizers[{name}]");
+        if name.is_empty() || self.localizers.iter().any(|l| l.name == name) {
+            return Err(ScenarioError::field(
+                &self.file,
+                format!("{field}.name"),
+                format!("{name:?} is empty or names a localizer of this scenario already"),
+            ));
+        }
+        for k in ["name", "kind"] {
+            if params.contains_key(k) {
+                return Err(ScenarioError::field(
+                    &self.file,
+                    format!("{field}.{k}"),
+                    "given as an argument, not a parameter",
+                ));
+            }
+        }
+        self.localizers.push(LocalizerSpec {
+            name: name.to_string(),
+            kind: kind.to_string(),
+            params,
+        });
+        if !expect.is_empty() {
+            self.expect
+                .insert(name.to_string(), toml::Value::Table(expect));
+        }
+        Ok(self)
+    }
+
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
             file: path.to_path_buf(),

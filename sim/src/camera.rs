@@ -1,5 +1,5 @@
-//! Intensity cameras: a ray-cast renderer of grey images (seeds/000 §VII: 160 × 120 grey
-//! images under `tube`, `bulb` and `natural` light; seeds/001: omnidirectional images whose
+//! Intensity cameras: a ray-cast renderer of grey images ([000] §VII: 160 × 120 grey
+//! images under `tube`, `bulb` and `natural` light; [001]: omnidirectional images whose
 //! columns shift when the robot turns, and the brightness of the ceiling above the robot).
 //!
 //! Every pixel casts one ray through the rapier scene (glass is transparent to cameras). The
@@ -586,7 +586,7 @@ pub fn floor_pose(p: &Pose2) -> Pose {
     ))
 }
 
-/// An omnidirectional camera (seeds/001): a panorama of `width` columns (azimuth, starting
+/// An omnidirectional camera ([001]): a panorama of `width` columns (azimuth, starting
 /// at the robot's heading and turning counter-clockwise) × `height` rows of elevation.
 #[derive(Debug, Clone)]
 pub struct OmniCamera {
@@ -644,7 +644,7 @@ impl OmniCamera {
 }
 
 /// An upward-looking camera reduced to one number: the mean brightness of the ceiling in a
-/// small cone above the robot (Dellaert's ceiling-brightness MCL, seeds/001).
+/// small cone above the robot (Dellaert's ceiling-brightness MCL, [001]).
 #[derive(Debug, Clone)]
 pub struct CeilingCamera {
     pub z: f64,

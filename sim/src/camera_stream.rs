@@ -1,5 +1,5 @@
-//! Cameras in the simulation stream: intensity cameras and stereo rigs (seeds/000 §III, §VII),
-//! upward ceiling cameras and panoramic (omnidirectional) cameras (seeds/001), rendered in
+//! Cameras in the simulation stream: intensity cameras and stereo rigs ([000] §III, §VII),
+//! upward ceiling cameras and panoramic (omnidirectional) cameras ([001]), rendered in
 //! [`crate::Simulation::step`] at their own rates under the run's lighting condition, pushed
 //! as [`Reading::Intensity`] and [`Reading::Disparity`].
 //!
@@ -50,7 +50,7 @@ pub struct StereoSensorSpec {
     pub rate_hz: f64,
 }
 
-/// An upward-looking camera (seeds/001, Dellaert's ceiling-brightness MCL): a small square
+/// An upward-looking camera ([001], Dellaert's ceiling-brightness MCL): a small square
 /// pinhole image of the ceiling straight above the robot. Its reading is a
 /// `Reading::Intensity` under `name` of `size × size` pixels whose mean is the ceiling
 /// brightness the map holds; the mount is `xyz = [0, 0, z]`, `rpy = [0, −π/2, 0]` (the
@@ -117,7 +117,7 @@ impl CeilingSensorSpec {
     }
 }
 
-/// A panoramic camera (seeds/001's omnicam, unwarped): `width` columns over 360° of azimuth,
+/// A panoramic camera ([001]'s omnicam, unwarped): `width` columns over 360° of azimuth,
 /// column c looking 2π c / width counter-clockwise from the robot's heading (so a turn of the
 /// robot by 2π k / width is a circular shift of the columns by k), `height` rows of elevation
 /// from +30° (top) to −30° (bottom), at height `z` on the robot's axis.
@@ -318,9 +318,9 @@ pub struct CameraSensors {
     pub lighting: LightingCondition,
     pub cameras: Vec<CameraSensorSpec>,
     pub stereo: Vec<StereoSensorSpec>,
-    /// Upward ceiling cameras (seeds/001).
+    /// Upward ceiling cameras ([001]).
     pub ceiling: Vec<CeilingSensorSpec>,
-    /// Panoramic cameras (seeds/001).
+    /// Panoramic cameras ([001]).
     pub omni: Vec<OmniSensorSpec>,
 }
 

@@ -7,7 +7,7 @@
 //! - axial noise σ(z) = 0.0012 + 0.0019 (z − 0.4)² m (ARCHITECTURE.md, sensors table; see
 //!   `robots/src/depth_camera.rs`), then quantization to `quantization` metres.
 //!
-//! Pixel geometry follows 004_5bf198ec52fcbc0c.txt §2.2 (a w × h image with fields of view
+//! Pixel geometry follows [004] §2.2 (a w × h image with fields of view
 //! f_h × f_v), written as pinhole intrinsics so that a point reconstructs exactly:
 //! (x, y, z) = d · (1, −(u − cx)/fx, −(v − cy)/fy) in the camera's REP-103 frame.
 

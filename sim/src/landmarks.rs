@@ -1,6 +1,6 @@
 //! An ideal point-feature detector with noise: it reports the centre of every pillar of the
 //! world that lies within range and field of view and is not occluded, as range and bearing
-//! with Gaussian noise (the observation model of seeds/003_050d61ffc79b029e.txt §2.1, eq. 5).
+//! with Gaussian noise (the observation model of [003] §2.1, eq. 5).
 //!
 //! Not derived from laser clusters: an ideal detector isolates the estimator under test from
 //! the detector's own failure modes (split or merged clusters, wall corners mistaken for

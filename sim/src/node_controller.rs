@@ -1,4 +1,4 @@
-//! The node controller of /work/shared/seeds/002_4f056f43b5d8a234.txt (Table I, §III-C and
+//! The node controller of [002] (Table I, §III-C and
 //! Algorithm 1): for every node, turnTo (turn in place until the heading lies within γ_θ of
 //! the bearing to the node), moveTo (drive until Table I's δ_d test holds within γ_d), update
 //! (set the odometry coordinates to the node's, go to the next node).

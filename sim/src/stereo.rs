@@ -1,4 +1,4 @@
-//! Stereo disparity with missing values (seeds/000 §III): two intensity cameras on a
+//! Stereo disparity with missing values ([000] §III): two intensity cameras on a
 //! horizontal baseline render the same scene; block matching along rows (sum of absolute
 //! differences over a square window) keeps a pixel only if its window is textured enough,
 //! its best match is unique and the right-to-left match agrees (left-right check), as the
@@ -434,7 +434,7 @@ mod tests {
             .collect()
     }
 
-    /// Issue 5 item 2 (seeds/000 §III, §VII): on the default office scenes about 20 % of the
+    /// Issue 5 item 2 ([000] §III, §VII): on the default office scenes about 20 % of the
     /// pixels are missing, mostly in textureless regions, and at least 95 % of the valid
     /// disparities are within 1 px of b·f/z.
     #[test]

@@ -1,6 +1,6 @@
 //! WiFi RSSI: the signal strength of every access point of the world at the robot's antenna.
 //!
-//! Per access point (the standard indoor model behind 004_5bf198ec52fcbc0c.txt §2.3, whose
+//! Per access point (the standard indoor model behind [004] §2.3, whose
 //! WiFi graph is learnt from such readings):
 //!
 //! RSSI = P₀ − 10·n·log₁₀(d / 1 m) − Σ_walls crossed A(material) + S(x, y) + M(x, y) + ε

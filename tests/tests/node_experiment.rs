@@ -1,4 +1,4 @@
-//! The landmark-filter experiment of 002_4f056f43b5d8a234.txt (Table II): the bundled
+//! The landmark-filter experiment of [002] (Table II): the bundled
 //! scenario `wheelchair_nodes` run with the five seeds of its `[node_experiment]` table, the
 //! node-error tables printed, and the paper's claims checked: every node verified by its
 //! landmark, errors of the order of ρ, and a clear improvement over dead reckoning on the

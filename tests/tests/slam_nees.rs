@@ -1,4 +1,4 @@
-//! NEES consistency of EKF-SLAM on the paper's setup (seeds/003_050d61ffc79b029e.txt §4;
+//! NEES consistency of EKF-SLAM on the paper's setup ([003] §4;
 //! issue 7): over M Monte Carlo runs of `scenarios/slam_paper.toml` (seeds 1..=M), the
 //! average (x, y) NEES at each scoring instant must lie within the two-sided 95 % bounds of
 //! χ²(2M) / M (Bar-Shalom et al., Estimation with Applications to Tracking, §5.4; the test

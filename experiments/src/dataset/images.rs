@@ -6,10 +6,10 @@
 //! Every `/image/<camera>` channel carries `fx`, `fy`, `cx`, `cy`, `mount_xyz`, `mount_rpy`
 //! and `projection`:
 //! - `projection = "pinhole"` (intensity cameras, stereo left images, the upward ceiling
-//!   camera of seeds/001): pixel (u, v) looks along (1, −(u − cx)/fx, −(v − cy)/fy) in the
+//!   camera of [001]): pixel (u, v) looks along (1, −(u − cx)/fx, −(v − cy)/fy) in the
 //!   mount frame (x forward / the optical axis, y left, z up). A ceiling camera's mount has
 //!   `rpy = [0, −π/2, 0]`: its optical axis points straight up.
-//! - `projection = "cylindrical"` (the panoramic omni camera of seeds/001): column u looks at
+//! - `projection = "cylindrical"` (the panoramic omni camera of [001]): column u looks at
 //!   azimuth (u − cx) / fx counter-clockwise from the mount's +x (the robot's heading), row v
 //!   at elevation (cy − v) / fy. A panorama is recognised by `cx = 0` and
 //!   `fx = width / 2π` (its `width` columns span exactly 360°, so turning the robot by
@@ -255,7 +255,7 @@ mod tests {
         assert_eq!(meta["projection"], "pinhole");
         let back = intensity_from_message(&msg, &meta, "x", 1.5).unwrap();
         assert_eq!(back, i);
-        // A panorama (seeds/001's omnicam): its intrinsics survive and name the cylinder.
+        // A panorama ([001]'s omnicam): its intrinsics survive and name the cylinder.
         let pano = IntensityImage {
             sensor: "omni".into(),
             width: 8,

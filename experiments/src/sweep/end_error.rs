@@ -1,4 +1,4 @@
-//! The open-area table of 004_5bf198ec52fcbc0c.txt §3: per localizer, the minimum, maximum
+//! The open-area table of [004] §3: per localizer, the minimum, maximum
 //! and median of the END error over a sweep's trials ("the robot was then driven back to the
 //! starting location, and the error in localization noted"). The end error of a trial is the
 //! `final_m` column of `results.csv` (the position error at the run's last scoring instant).

@@ -45,6 +45,10 @@ pub struct Sweep {
     pub hash: String,
     /// `[error_map] resolution`, m: every trial records a per-location error map.
     pub error_map: Option<f64>,
+    /// The sweep file's own `[[localizers]]`, added to the base scenario's in every cell.
+    pub extra_localizers: Vec<toml::Table>,
+    /// The sweep file's own `[expect.<localizer>]` tables.
+    pub extra_expect: toml::Table,
     /// The maps (likelihood fields, grids) the validation built, per cell: kept alive so the
     /// trials share them instead of rebuilding (see `atrium_scenarios::map_cache`). `run_sweep` takes
     /// them and drops each cell's once its last trial is done.
@@ -92,6 +96,12 @@ struct SweepFile {
     axes: toml::Table,
     #[serde(default)]
     error_map: Option<ErrorMapFile>,
+    /// `[[localizers]]` added to the base scenario's (a user's own beside the bundled ones).
+    #[serde(default)]
+    localizers: Vec<toml::Table>,
+    /// `[expect.<localizer>]` tables added to (or replacing) the base scenario's.
+    #[serde(default)]
+    expect: toml::Table,
 }
 
 /// FNV-1a 64 over `parts` with a separator, printed as hex: stable across machines and
@@ -263,6 +273,8 @@ impl Sweep {
             error_map,
             warm: WarmMaps::default(),
             registry,
+            extra_localizers: raw.localizers,
+            extra_expect: raw.expect,
             file: file.to_path_buf(),
             name,
             hash: fnv_hex(&[text, &base_text]),
@@ -312,6 +324,24 @@ impl Sweep {
                 file: self.base_file.clone(),
                 msg: e.to_string(),
             })?;
+        if !self.extra_localizers.is_empty() {
+            let list = doc
+                .entry("localizers")
+                .or_insert_with(|| toml::Value::Array(Vec::new()));
+            if let toml::Value::Array(a) = list {
+                a.extend(self.extra_localizers.iter().cloned().map(toml::Value::Table));
+            }
+        }
+        if !self.extra_expect.is_empty() {
+            let expect = doc
+                .entry("expect")
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if let toml::Value::Table(t) = expect {
+                for (k, v) in &self.extra_expect {
+                    t.insert(k.clone(), v.clone());
+                }
+            }
+        }
         for (path, value) in params {
             set_path(&mut doc, path, value)
                 .map_err(|msg| ScenarioError::field(&self.file, format!("axes.{path}"), msg))?;

@@ -1,4 +1,4 @@
-//! Per-location error maps of a sweep (issue 9, deliverable 3; 004_5bf198ec52fcbc0c.txt §3,
+//! Per-location error maps of a sweep (issue 9, deliverable 3; [004] §3,
 //! Figure 2). With `[error_map] resolution = R` in the sweep file every trial adds each scored
 //! instant's position error to the cell of the robot's true position
 //! ([`atrium_scenarios::error_maps::accumulate`]) and its map is written, atomically, to

@@ -2,7 +2,7 @@
 //! names a base scenario, parameter axes and trials per cell; `atrium sweep` runs every trial
 //! in parallel with seeds derived from the trial's index (so results do not depend on the
 //! thread count or the sharding), appends one row batch per trial to `results.csv`, and
-//! writes `summary.md`. Source of the experiment design: 004_5bf198ec52fcbc0c.txt §3.
+//! writes `summary.md`. Source of the experiment design: [004] §3.
 
 pub mod bench;
 pub mod csv;

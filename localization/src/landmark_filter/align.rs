@@ -2,7 +2,7 @@
 //! turns the paper's "x, y = x_n, y_n" reset into "the pose is the node's training pose,
 //! corrected by where the robot stands relative to it".
 //!
-//! BEYOND THE PAPER. 002_4f056f43b5d8a234.txt (Table I update(), Algorithm 1 line 14) resets
+//! BEYOND THE PAPER. [002] (Table I update(), Algorithm 1 line 14) resets
 //! only x and y to the node, so the robot inherits the whole offset between where it stands
 //! and the node (up to ρ) and keeps its heading error. The feature triplet of eq. 5 / eq. 7
 //! stores the range vector r_t and the pose x_t of each node, so the node's own training
