@@ -263,3 +263,95 @@ impl LocalizerRegistry {
         run_localizers(scenario, seed, stream, events, localizers, options)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use atrium_localization::dead_reckoning::DeadReckoning;
+
+    fn dead_reckoning(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError> {
+        Ok(Box::new(DeadReckoning::new(
+            &ctx.spec.name,
+            ctx.scenario.start,
+        )))
+    }
+
+    fn corridor() -> Scenario {
+        Scenario::load(&crate::bundled_scenarios_dir().join("corridor_tracking.toml")).unwrap()
+    }
+
+    #[test]
+    fn a_kind_registered_twice_is_refused() {
+        let mut r = LocalizerRegistry::empty();
+        r.register("mine", dead_reckoning).unwrap();
+        assert_eq!(
+            r.register("mine", dead_reckoning).err(),
+            Some(RegistryError::Duplicate("mine".into()))
+        );
+        let mut b = LocalizerRegistry::with_builtins();
+        let e = b.register("mcl", dead_reckoning).unwrap_err();
+        assert!(
+            e.to_string().contains("\"mcl\" is registered already"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn kind_names_are_identifiers() {
+        let mut r = LocalizerRegistry::empty();
+        for bad in ["", "1x", "a b", "a/b", "ä"] {
+            assert_eq!(
+                r.register(bad, dead_reckoning).err(),
+                Some(RegistryError::BadName(bad.into())),
+                "{bad:?}"
+            );
+        }
+        r.register("my-filter_2", dead_reckoning).unwrap();
+    }
+
+    #[test]
+    fn an_unknown_kind_names_the_registered_ones_before_the_run() {
+        let mut s = corridor();
+        s.add_localizer("x", "mine", toml::Table::new(), toml::Table::new())
+            .unwrap();
+        let builtins = LocalizerRegistry::with_builtins();
+        let e = builtins.check(&s).unwrap_err().to_string();
+        assert!(e.contains("localizers[x].kind"), "{e}");
+        assert!(e.contains("unknown localizer kind \"mine\""), "{e}");
+        // The list is the registry's own, built-ins included.
+        for k in builtins.kinds() {
+            assert!(e.contains(k), "{k} missing from: {e}");
+        }
+        let mut mine = builtins.clone();
+        mine.register("mine", dead_reckoning).unwrap();
+        mine.check(&s).unwrap();
+        assert!(
+            !builtins.contains("mine"),
+            "a clone is a registry of its own"
+        );
+    }
+
+    #[test]
+    fn a_users_kind_runs_and_is_judged_by_its_expect_table() {
+        let mut s = corridor();
+        s.duration_s = 20.0;
+        s.localizers.retain(|l| l.kind == "dead_reckoning");
+        s.expect = toml::Table::new();
+        let expect: toml::Table = toml::from_str("median_max = 1e-6").unwrap();
+        s.add_localizer("mine", "mine", toml::Table::new(), expect)
+            .unwrap();
+        let mut r = LocalizerRegistry::empty();
+        r.register("mine", dead_reckoning)
+            .unwrap()
+            .register("dead_reckoning", dead_reckoning)
+            .unwrap();
+        let result = r.run(&s, RunOptions::default()).unwrap();
+        let mine = result.localizers.iter().find(|l| l.name == "mine").unwrap();
+        assert_eq!(mine.kind, "mine");
+        // Dead reckoning drifts by far more than a micrometre in 20 s: the bound fails, so
+        // the expectation was really evaluated against this localizer's run.
+        assert_eq!(mine.expectations.len(), 1);
+        assert!(!mine.passed);
+        assert!(!result.passed());
+    }
+}
