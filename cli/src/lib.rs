@@ -358,7 +358,7 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
         Some(Command::Inspect {
             what: InspectWhat::Robot { urdf, json },
         }) => {
-            let r = atrium_robots::RobotModel::from_urdf(&urdf)?;
+            let r = atrium_robots::RobotModel::inspect_urdf(&urdf)?;
             if json {
                 print_json(&inspect::robot_json(&r))?;
             } else {

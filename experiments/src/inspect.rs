@@ -1,6 +1,6 @@
 //! `atrium inspect robot|world`: what Atrium derived from a description file.
 
-use atrium_robots::RobotModel;
+use atrium_robots::RobotInspection;
 use atrium_worlds::{LaserBehaviour, World};
 use serde_json::{json, Value};
 use std::fmt::Write;
@@ -9,7 +9,10 @@ fn v3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
 
-pub fn robot_json(r: &RobotModel) -> Value {
+/// `atrium inspect robot --json`: the model, and why each revolving joint that does not
+/// drive was left out.
+pub fn robot_json(i: &RobotInspection) -> Value {
+    let r = &i.model;
     let wheel = |w: &atrium_robots::Wheel| {
         json!({"joint": w.joint, "link": w.link, "center": v3(&w.center), "axis": v3(&w.axis),
                "radius": w.radius, "width": w.width, "mass": w.mass})
@@ -29,11 +32,13 @@ pub fn robot_json(r: &RobotModel) -> Value {
             let (xyz, rpy) = m.xyz_rpy();
             json!({"name": m.name, "xyz": xyz, "rpy": rpy})
         }).collect::<Vec<_>>(),
+        "excluded_joints": i.excluded_joints.iter().map(|e| json!({"joint": e.joint, "link": e.link, "reason": e.reason})).collect::<Vec<_>>(),
         "warnings": r.warnings,
     })
 }
 
-pub fn robot_text(r: &RobotModel) -> String {
+pub fn robot_text(i: &RobotInspection) -> String {
+    let r = &i.model;
     let mut s = String::new();
     let _ = writeln!(s, "robot {} (base link {})", r.name, r.base_link);
     let _ = writeln!(s, "wheel_radius      {:.4} m", r.wheel_radius);
@@ -58,6 +63,13 @@ pub fn robot_text(r: &RobotModel) -> String {
             s,
             "  {:<28} xyz [{:>7.4} {:>7.4} {:>7.4}]  rpy [{:>7.4} {:>7.4} {:>7.4}]",
             m.name, xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]
+        );
+    }
+    for e in &i.excluded_joints {
+        let _ = writeln!(
+            s,
+            "not a drive joint {} (link {}): {}",
+            e.joint, e.link, e.reason
         );
     }
     for w in &r.warnings {

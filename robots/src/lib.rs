@@ -21,11 +21,21 @@ pub use diff_drive::DiffDrive;
 pub use error::RobotError;
 pub use images::{DisparityImage, IntensityImage};
 pub use landmark_detector::{Association, LandmarkDetectorSpec};
-pub use model::{Caster, LinkMount, RobotModel, Shape, ShapeInstance, Wheel};
+pub use model::{
+    Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, Wheel,
+};
 pub use pose::{normalize_angle, Pose2};
 pub use readings::{
     DepthImage, LandmarkDetection, LandmarkDetections, LaserScan, Mount3, Reading, WheelOdometry,
     WifiReading, WifiScan,
 };
 pub use sensors::{LaserSpec, OdometrySpec, RobotSensors};
+/// The limits the URDF loader enforces (each refusal names the file, the field and the limit).
+pub mod urdf_limits {
+    pub use crate::urdf::{
+        MAX_ANGLE_RAD, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG, MAX_WHEEL_RADIUS_M,
+        MAX_WHEEL_RADIUS_PER_SEPARATION, MAX_XML_DEPTH, MIN_MASS_KG, MIN_WHEEL_RADIUS_M,
+        MIN_WHEEL_SEPARATION_M, QUAT_NORM_RANGE,
+    };
+}
 pub use wifi::WifiSpec;

@@ -70,6 +70,28 @@ impl LinkMount {
     }
 }
 
+/// A revolving (continuous or revolute) URDF joint that the loader did not make one of the two
+/// drive wheels, and why (its axis is not lateral, it is a caster by name or sits below a
+/// swivel, or its link has no round geometry).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExcludedJoint {
+    pub joint: String,
+    /// The joint's child link.
+    pub link: String,
+    /// Human-readable, e.g. `it hangs below the swivel joint "caster_swivel_joint" (...)`.
+    pub reason: String,
+}
+
+/// A robot loaded from a URDF together with the loader's per-joint decisions, for
+/// `atrium inspect robot`. (Kept beside the [`RobotModel`] rather than in it so that code
+/// building a `RobotModel` with a struct literal keeps compiling.)
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotInspection {
+    pub model: RobotModel,
+    /// Every revolving joint that is not a drive wheel, in tree order (parents first).
+    pub excluded_joints: Vec<ExcludedJoint>,
+}
+
 /// A differential-drive robot derived from a URDF.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobotModel {
@@ -108,6 +130,25 @@ impl RobotModel {
     /// Parses URDF text; `source` names it in error messages.
     pub fn from_urdf_str(text: &str, source: &str) -> Result<Self, RobotError> {
         crate::urdf::load_str(text, source)
+    }
+
+    /// [`RobotModel::from_urdf`], plus why each revolving joint that is not a drive wheel was
+    /// left out of the drive.
+    pub fn inspect_urdf(path: &Path) -> Result<RobotInspection, RobotError> {
+        let (model, excluded_joints) = crate::urdf::load_file_with_report(path)?;
+        Ok(RobotInspection {
+            model,
+            excluded_joints,
+        })
+    }
+
+    /// [`RobotModel::inspect_urdf`] on URDF text; `source` names it in error messages.
+    pub fn inspect_urdf_str(text: &str, source: &str) -> Result<RobotInspection, RobotError> {
+        let (model, excluded_joints) = crate::urdf::load_str_with_report(text, source)?;
+        Ok(RobotInspection {
+            model,
+            excluded_joints,
+        })
     }
 
     pub fn drive(&self) -> DiffDrive {

@@ -3,9 +3,14 @@
 //! urdf-rs gives the typed tree; roxmltree reads the raw XML first, because urdf-rs silently
 //! defaults what a loader must notice (an omitted `<axis>` becomes 1 0 0, a missing mass 0),
 //! drops unparsable numbers from vectors, and reports errors without naming the element.
+//!
+//! Hostile input is refused with an error, never a panic, an abort or silent garbage: numbers
+//! must be finite and within the limits below (`MAX_LENGTH_M`, `MAX_MASS_KG`, wheel size and
+//! separation, XML depth, ...), and every refusal names the file, the link or joint, the field
+//! and the limit. Loading is linear in the size of the file.
 
 use crate::error::RobotError;
-use crate::model::{Caster, LinkMount, RobotModel, Shape, ShapeInstance, Wheel};
+use crate::model::{Caster, ExcludedJoint, LinkMount, RobotModel, Shape, ShapeInstance, Wheel};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -20,15 +25,80 @@ const DEFAULT_WHEEL_MASS_FRACTION: f64 = 0.02;
 /// A caster whose lowest point is farther than this from the floor gets a warning.
 const CASTER_GAP_WARN: f64 = 0.005;
 
+// ---- Limits on what a URDF may state. Each refusal names the file, the link or joint, the
+// ---- field and the limit. They are far outside any real indoor robot, so they only catch
+// ---- typos and garbage (1e300, a unit mix-up) before it turns into inf, NaN or a misleading
+// ---- error much later (a "start pose collides" for a 50 m wheel).
+
+/// Largest length or coordinate (m): geometry sizes, every `<origin xyz>` component, and how
+/// far any link or shape may lie from the base link. Atrium simulates indoor mobile robots (the
+/// largest, wheelchairs and AGVs, are 1 to 2 m); 50 m admits anything that fits in a building
+/// and keeps the f32 physics precise to a few micrometres over the robot.
+pub const MAX_LENGTH_M: f64 = 50.0;
+/// Largest |roll|, |pitch|, |yaw| of an `<origin rpy>` (rad). Real files stay within ±2π;
+/// beyond 100 rad a value is garbage (1e300) or degrees (180, 360), and beyond about 1e16 rad
+/// f64 cannot even resolve a whole turn.
+pub const MAX_ANGLE_RAD: f64 = 100.0;
+/// Largest mass of one link and of the whole chassis (kg). Heavier than any indoor robot (a
+/// loaded AGV is a few tonnes); keeps the 2 % default wheel mass and the solver's mass ratios
+/// within what f32 physics handles.
+pub const MAX_MASS_KG: f64 = 10_000.0;
+/// Smallest mass (kg) of the chassis (every link but the drive wheels) and of a drive wheel
+/// whose mass the URDF states: the physics computes in f32 and needs mass to move, and a gram
+/// is below any real robot's wheel (TurtleBot3's weigh 28 g). Single links (sensor frames) may
+/// be lighter.
+pub const MIN_MASS_KG: f64 = 1e-3;
+/// Largest |inertia tensor entry| (kg·m²): the heaviest link spread over the largest length,
+/// `MAX_MASS_KG · MAX_LENGTH_M²`.
+pub const MAX_INERTIA: f64 = MAX_MASS_KG * MAX_LENGTH_M * MAX_LENGTH_M;
+/// A `quat_xyzw` must have a norm within [1/this, this]: urdf-rs normalises it by squaring the
+/// components, which silently turns a zero, tiny (1e-200) or huge (1e200) quaternion into the
+/// identity rotation.
+pub const QUAT_NORM_RANGE: f64 = 1e3;
+/// Largest drive-wheel radius (m): a wheel taller than 2 m would not pass a standard door
+/// (2.0 to 2.1 m high), so it cannot drive through an indoor world. Also refused: a radius
+/// larger than the wheel separation ([`MAX_WHEEL_RADIUS_PER_SEPARATION`]).
+pub const MAX_WHEEL_RADIUS_M: f64 = 1.0;
+/// Largest drive-wheel radius as a fraction of the wheel separation. Real differential drives
+/// have 0.2 to 0.55 (TurtleBot3 0.21, Pioneer 3-DX 0.30, wheelchairs about 0.3 to 0.5); a wheel
+/// wider in radius than the track is a robot of two giant wheels, i.e. a wrong unit or size.
+pub const MAX_WHEEL_RADIUS_PER_SEPARATION: f64 = 1.0;
+/// Smallest drive-wheel radius (m): motor speeds are v / r, and below 5 mm the physics' contact
+/// margins (millimetres) are as large as the wheel.
+pub const MIN_WHEEL_RADIUS_M: f64 = 0.005;
+/// Smallest wheel separation (m): the turn rate is (v_r − v_l) / separation; the smallest real
+/// differential drives are several centimetres across (e-puck: 5.3 cm). The wheels must also
+/// not overlap (separation > mean wheel width).
+pub const MIN_WHEEL_SEPARATION_M: f64 = 0.01;
+/// Deepest XML element nesting accepted. A URDF nests about 6 deep (robot, link, collision,
+/// geometry, box; a few more inside `<gazebo>` blocks); the XML parsers recurse once per level,
+/// and 100,000 nested elements overflow the stack (an abort, not an error).
+pub const MAX_XML_DEPTH: usize = 64;
+
 pub(crate) fn load_file(path: &Path) -> Result<RobotModel, RobotError> {
+    load_file_with_report(path).map(|(model, _)| model)
+}
+
+pub(crate) fn load_file_with_report(
+    path: &Path,
+) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
     let text = std::fs::read_to_string(path).map_err(|err| RobotError::Io {
         source_name: path.display().to_string(),
         err,
     })?;
-    load_str(&text, &path.display().to_string())
+    load_str_with_report(&text, &path.display().to_string())
 }
 
 pub(crate) fn load_str(text: &str, source: &str) -> Result<RobotModel, RobotError> {
+    load_str_with_report(text, source).map(|(model, _)| model)
+}
+
+/// [`load_str`], plus every revolving joint that is not a drive wheel, with the reason.
+pub(crate) fn load_str_with_report(
+    text: &str,
+    source: &str,
+) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
+    check_depth(text, source)?;
     let doc = match roxmltree::Document::parse(text) {
         Ok(doc) => doc,
         Err(err) => {
@@ -53,6 +123,87 @@ pub(crate) fn load_str(text: &str, source: &str) -> Result<RobotModel, RobotErro
         msg: format!("URDF: {e}"),
     })?;
     build(&robot, &facts, source)
+}
+
+/// Refuses XML nested deeper than [`MAX_XML_DEPTH`] before any parser sees it (roxmltree and
+/// urdf-rs both recurse once per level). A linear byte scan that knows comments, CDATA,
+/// processing instructions, declarations and quoted attribute values; whatever else is
+/// malformed is left for roxmltree to report.
+fn check_depth(text: &str, source: &str) -> Result<(), RobotError> {
+    let b = text.as_bytes();
+    // Index just past the first `pat` at or after `from` (the end of the text if none).
+    let past = |from: usize, pat: &[u8]| {
+        b[from..]
+            .windows(pat.len())
+            .position(|w| w == pat)
+            .map_or(b.len(), |k| from + k + pat.len())
+    };
+    let mut depth = 0usize;
+    let mut i = 0;
+    while let Some(k) = b[i..].iter().position(|&c| c == b'<') {
+        let start = i + k;
+        let rest = &b[start..];
+        i = if rest.starts_with(b"<!--") {
+            past(start + 4, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            past(start + 9, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            past(start + 2, b"?>")
+        } else if rest.starts_with(b"<!") {
+            past(start + 2, b">")
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            past(start + 2, b">")
+        } else {
+            // A start tag: its end is the first `>` outside a quoted attribute value.
+            let mut j = start + 1;
+            let mut quote = None;
+            while j < b.len() {
+                let c = b[j];
+                match quote {
+                    Some(q) if c == q => quote = None,
+                    Some(_) => {}
+                    None if c == b'"' || c == b'\'' => quote = Some(c),
+                    None if c == b'>' => break,
+                    None => {}
+                }
+                j += 1;
+            }
+            if !(j < b.len() && b[j - 1] == b'/') {
+                depth += 1;
+                if depth > MAX_XML_DEPTH {
+                    let line = 1 + b[..start].iter().filter(|&&c| c == b'\n').count();
+                    let name: String = text[start + 1..]
+                        .chars()
+                        .take_while(|c| !c.is_whitespace() && !matches!(c, '>' | '/' | '<'))
+                        .take(64)
+                        .collect();
+                    return Err(RobotError::Xml {
+                        source_name: source.into(),
+                        msg: format!(
+                            "line {line}: element <{name}> is nested more than {MAX_XML_DEPTH} \
+                             elements deep (the limit; a URDF nests about 6 deep)"
+                        ),
+                    });
+                }
+            }
+            j + 1
+        };
+        if i >= b.len() {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// A number for a message: plain for everyday magnitudes, in exponent form for huge or tiny
+/// ones (`1e300`, not three hundred digits).
+fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e16).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 fn invalid(source: &str, msg: impl Into<String>) -> RobotError {
@@ -179,17 +330,59 @@ fn numbers_attr(
     parse_numbers(value, n).map_err(|msg| field_err(source, field, msg))
 }
 
-fn positive_attr(
+/// A length (m): > 0 and at most [`MAX_LENGTH_M`].
+fn check_length(v: f64, field: &str, source: &str) -> Result<f64, RobotError> {
+    if v <= 0.0 {
+        return Err(field_err(
+            source,
+            field,
+            format!("must be > 0 (got {})", num(v)),
+        ));
+    }
+    if v > MAX_LENGTH_M {
+        return Err(field_err(
+            source,
+            field,
+            format!(
+                "{} m exceeds the limit of {MAX_LENGTH_M} m for any robot length or \
+                 coordinate (MAX_LENGTH_M)",
+                num(v)
+            ),
+        ));
+    }
+    Ok(v)
+}
+
+fn length_attr(
     node: roxmltree::Node,
     attr: &str,
     field: &str,
     source: &str,
 ) -> Result<f64, RobotError> {
     let v = numbers_attr(node, attr, 1, field, source)?[0];
-    if v <= 0.0 {
-        return Err(field_err(source, field, format!("must be > 0 (got {v})")));
+    check_length(v, field, source)
+}
+
+/// Each number's magnitude is at most `limit`.
+fn check_magnitudes(
+    values: &[f64],
+    limit: f64,
+    unit: &str,
+    name: &str,
+    field: &str,
+    source: &str,
+) -> Result<(), RobotError> {
+    match values.iter().find(|v| v.abs() > limit) {
+        Some(v) => Err(field_err(
+            source,
+            field,
+            format!(
+                "{} exceeds the limit of ±{limit} {unit} ({name}) (got {values:?})",
+                num(*v)
+            ),
+        )),
+        None => Ok(()),
     }
-    Ok(v)
 }
 
 fn check_origin(parent: roxmltree::Node, prefix: &str, source: &str) -> Result<(), RobotError> {
@@ -197,8 +390,30 @@ fn check_origin(parent: roxmltree::Node, prefix: &str, source: &str) -> Result<(
         return Ok(());
     };
     for (attr, n) in [("xyz", 3), ("rpy", 3), ("quat_xyzw", 4)] {
-        if origin.attribute(attr).is_some() {
-            numbers_attr(origin, attr, n, &format!("{prefix}.origin.{attr}"), source)?;
+        if origin.attribute(attr).is_none() {
+            continue;
+        }
+        let field = format!("{prefix}.origin.{attr}");
+        let v = numbers_attr(origin, attr, n, &field, source)?;
+        match attr {
+            "xyz" => check_magnitudes(&v, MAX_LENGTH_M, "m", "MAX_LENGTH_M", &field, source)?,
+            "rpy" => check_magnitudes(&v, MAX_ANGLE_RAD, "rad", "MAX_ANGLE_RAD", &field, source)?,
+            _ => {
+                let norm = v.iter().fold(0.0f64, |a, &b| a.hypot(b));
+                if !(1.0 / QUAT_NORM_RANGE..=QUAT_NORM_RANGE).contains(&norm) {
+                    return Err(field_err(
+                        source,
+                        field,
+                        format!(
+                            "a rotation quaternion's norm must be within [{}, {}] \
+                             (QUAT_NORM_RANGE), got {} for {v:?}",
+                            1.0 / QUAT_NORM_RANGE,
+                            QUAT_NORM_RANGE,
+                            num(norm)
+                        ),
+                    ));
+                }
+            }
         }
     }
     Ok(())
@@ -230,13 +445,21 @@ fn check_geometry(parent: roxmltree::Node, prefix: &str, source: &str) -> Result
                     format!("every side must be > 0 (got {size:?})"),
                 ));
             }
+            check_magnitudes(
+                &size,
+                MAX_LENGTH_M,
+                "m",
+                "MAX_LENGTH_M",
+                &field("size"),
+                source,
+            )?;
         }
         "cylinder" | "capsule" => {
-            positive_attr(*shape, "radius", &field("radius"), source)?;
-            positive_attr(*shape, "length", &field("length"), source)?;
+            length_attr(*shape, "radius", &field("radius"), source)?;
+            length_attr(*shape, "length", &field("length"), source)?;
         }
         "sphere" => {
-            positive_attr(*shape, "radius", &field("radius"), source)?;
+            length_attr(*shape, "radius", &field("radius"), source)?;
         }
         "mesh" => {
             if shape
@@ -281,18 +504,46 @@ fn check_link(link: roxmltree::Node, name: &str, source: &str) -> Result<(), Rob
         let field = format!("{prefix}.mass.value");
         let m = numbers_attr(mass, "value", 1, &field, source)?[0];
         if m < 0.0 {
-            return Err(field_err(source, field, format!("must be >= 0 (got {m})")));
+            return Err(field_err(
+                source,
+                field,
+                format!("must be >= 0 (got {})", num(m)),
+            ));
+        }
+        if m > MAX_MASS_KG {
+            return Err(field_err(
+                source,
+                field,
+                format!(
+                    "{} kg exceeds the limit of {MAX_MASS_KG} kg for a link (MAX_MASS_KG)",
+                    num(m)
+                ),
+            ));
         }
         let inertia = child(inertial, "inertia")
             .ok_or_else(|| field_err(source, format!("{prefix}.inertia"), "missing"))?;
         for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
-            numbers_attr(
-                inertia,
-                attr,
-                1,
-                &format!("{prefix}.inertia.{attr}"),
-                source,
-            )?;
+            let field = format!("{prefix}.inertia.{attr}");
+            let v = numbers_attr(inertia, attr, 1, &field, source)?[0];
+            let diagonal = matches!(attr, "ixx" | "iyy" | "izz");
+            if diagonal && v < 0.0 {
+                return Err(field_err(
+                    source,
+                    field,
+                    format!("a moment of inertia must be >= 0 (got {})", num(v)),
+                ));
+            }
+            if v.abs() > MAX_INERTIA {
+                return Err(field_err(
+                    source,
+                    field,
+                    format!(
+                        "{} kg·m² exceeds the limit of ±{MAX_INERTIA} kg·m² (MAX_INERTIA = \
+                         MAX_MASS_KG · MAX_LENGTH_M²)",
+                        num(v)
+                    ),
+                ));
+            }
         }
     }
     Ok(())
@@ -365,20 +616,27 @@ fn check_xml(doc: &roxmltree::Document, source: &str) -> Result<XmlFacts, RobotE
         if kind != "link" && kind != "joint" {
             continue;
         }
-        let line = doc.text_pos_at(node.range().start).row;
+        // Only on error: `text_pos_at` scans the text from its start, so calling it for every
+        // element made loading quadratic in the number of links.
+        let line = || doc.text_pos_at(node.range().start).row;
         let name = node
             .attribute("name")
             .filter(|n| !n.trim().is_empty())
-            .ok_or_else(|| field_err(source, format!("{kind} at line {line}"), "has no name"))?;
+            .ok_or_else(|| {
+                field_err(source, format!("{kind} at line {}", line()), "has no name")
+            })?;
         let seen = if kind == "link" {
             &mut links
         } else {
             &mut joints
         };
-        if !seen.insert(name.to_string()) {
+        if !seen.insert(name) {
             return Err(invalid(
                 source,
-                format!("{kind} name {name:?} is used twice (again at line {line})"),
+                format!(
+                    "{kind} name {name:?} is used twice (again at line {})",
+                    line()
+                ),
             ));
         }
         if kind == "link" {
@@ -427,6 +685,8 @@ struct Node<'a> {
 #[derive(Default)]
 struct LinkGeometry {
     prims: Vec<ShapeInstance>,
+    /// For each primitive, its field path in the URDF (`link[l].collision[0].geometry.cylinder`).
+    fields: Vec<String>,
     meshes: Vec<String>,
     from_visual: bool,
     capsules: usize,
@@ -448,7 +708,19 @@ fn link_geometry(link: &urdf_rs::Link, pose: &Isometry3<f64>) -> LinkGeometry {
             .map(|c| (&c.origin, &c.geometry))
             .collect()
     };
-    for (origin, geometry) in elements {
+    let kind = if out.from_visual {
+        "visual"
+    } else {
+        "collision"
+    };
+    for (k, (origin, geometry)) in elements.into_iter().enumerate() {
+        let shape_name = match geometry {
+            Geometry::Box { .. } => "box",
+            Geometry::Cylinder { .. } => "cylinder",
+            Geometry::Sphere { .. } => "sphere",
+            Geometry::Capsule { .. } => "capsule",
+            Geometry::Mesh { .. } => "mesh",
+        };
         let shape = match geometry {
             Geometry::Box { size } => Shape::Box { size: size.0 },
             Geometry::Cylinder { radius, length } => Shape::Cylinder {
@@ -475,8 +747,22 @@ fn link_geometry(link: &urdf_rs::Link, pose: &Isometry3<f64>) -> LinkGeometry {
             shape,
             pose: pose * origin_pose(origin),
         });
+        out.fields.push(format!(
+            "link[{}].{kind}[{k}].geometry.{shape_name}",
+            link.name
+        ));
     }
     out
+}
+
+/// Farthest any point of a placed primitive lies from the base origin (an upper bound).
+fn reach(p: &ShapeInstance) -> f64 {
+    let half_diagonal = match p.shape {
+        Shape::Sphere { radius } => radius,
+        Shape::Cylinder { radius, length } => radius.hypot(0.5 * length),
+        Shape::Box { size } => 0.5 * size[0].hypot(size[1]).hypot(size[2]),
+    };
+    p.pose.translation.vector.norm() + half_diagonal
 }
 
 /// Height of the lowest point of a placed primitive, in the base frame.
@@ -605,7 +891,14 @@ fn kinematic_tree<'a>(
         let parent_pose = nodes[next].pose;
         for j in children.get(name).map(Vec::as_slice).unwrap_or_default() {
             let joint_pose = parent_pose * origin_pose(&j.origin);
-            let axis = joint_pose.rotation * Vector3::from(j.axis.xyz.0).normalize();
+            // Scaled by its largest component first: normalising 1e-200 or 1e200 directly
+            // under- or overflows the squared norm (the XML check refused the zero vector).
+            let raw = Vector3::from(j.axis.xyz.0);
+            let axis = if raw.amax() > 0.0 {
+                joint_pose.rotation * (raw / raw.amax()).normalize()
+            } else {
+                joint_pose.rotation * Vector3::x()
+            };
             nodes.push(Node {
                 link: links[j.child.link.as_str()],
                 pose: joint_pose,
@@ -644,61 +937,116 @@ enum Owner {
     Caster(usize),
 }
 
-fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<RobotModel, RobotError> {
+fn build(
+    robot: &urdf_rs::Robot,
+    facts: &XmlFacts,
+    source: &str,
+) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
     let nodes = kinematic_tree(robot, source)?;
     let geometry: Vec<LinkGeometry> = nodes
         .iter()
         .map(|n| link_geometry(n.link, &n.pose))
         .collect();
+    check_reach(&nodes, &geometry, source)?;
     let mut warnings = Vec::new();
+    let mut excluded = Vec::new();
 
     // A swivel (revolving joint about a vertical axis) above a wheel makes it a caster wheel.
-    let under_swivel = |mut i: usize| {
-        while let Some(p) = nodes[i].parent {
-            let j = nodes[i].joint.expect("non-root nodes have a joint");
-            if is_revolving(j) && nodes[i].axis.z.abs() > VERTICAL {
-                return true;
-            }
-            i = p;
-        }
-        false
-    };
+    // The nearest swivel at or above each link, in one pass (parents come before children).
+    let mut swivel: Vec<Option<usize>> = vec![None; nodes.len()];
+    for i in 1..nodes.len() {
+        let j = nodes[i].joint.expect("non-root nodes have a joint");
+        swivel[i] = if is_revolving(j) && nodes[i].axis.z.abs() > VERTICAL {
+            Some(i)
+        } else {
+            swivel[nodes[i].parent.expect("non-root nodes have a parent")]
+        };
+    }
 
-    // ---- drive wheels
-    let mut wheels: Vec<(usize, (f64, f64, &ShapeInstance))> = Vec::new();
+    // ---- drive wheels: (node, (radius, width, primitive, primitive index))
+    type Candidate<'g> = (usize, (f64, f64, &'g ShapeInstance, usize));
+    let mut wheels: Vec<Candidate> = Vec::new();
     let mut skipped: Vec<String> = Vec::new();
     for (i, node) in nodes.iter().enumerate() {
         let Some(j) = node.joint else { continue };
-        if !is_revolving(j) || node.axis.y.abs() <= LATERAL {
+        if !is_revolving(j) {
             continue;
         }
-        if is_caster_name(&j.name) || is_caster_name(&node.link.name) || under_swivel(i) {
+        let mut exclude = |reason: String, lateral: bool| {
+            if lateral {
+                skipped.push(format!("joint {:?}: {reason}", j.name));
+            }
+            excluded.push(ExcludedJoint {
+                joint: j.name.clone(),
+                link: node.link.name.clone(),
+                reason,
+            });
+        };
+        let a = node.axis;
+        if a.y.abs() <= LATERAL {
+            exclude(
+                format!(
+                    "its axis ({:.3}, {:.3}, {:.3} in the base frame) is not lateral: a drive \
+                     wheel turns about ±y (|y| > {LATERAL})",
+                    a.x, a.y, a.z
+                ),
+                false,
+            );
+            continue;
+        }
+        let mut caster = Vec::new();
+        if is_caster_name(&j.name) || is_caster_name(&node.link.name) {
+            let whose = if is_caster_name(&j.name) {
+                "joint"
+            } else {
+                "link"
+            };
+            caster.push(format!("its {whose} name contains \"caster\""));
+        }
+        if let Some(s) = swivel[i] {
+            let swivel_joint = nodes[s].joint.map(|j| j.name.as_str()).unwrap_or_default();
+            caster.push(format!(
+                "it hangs below the swivel joint {swivel_joint:?} (a revolving joint with a \
+                 vertical axis)"
+            ));
+        }
+        if !caster.is_empty() {
+            exclude(
+                format!(
+                    "{}: a caster wheel, not a drive wheel",
+                    caster.join(" and ")
+                ),
+                true,
+            );
             continue;
         }
         let round = geometry[i]
             .prims
             .iter()
-            .filter_map(|p| match p.shape {
-                Shape::Cylinder { radius, length } => Some((radius, length, p)),
-                Shape::Sphere { radius } => Some((radius, 2.0 * radius, p)),
+            .enumerate()
+            .filter_map(|(k, p)| match p.shape {
+                Shape::Cylinder { radius, length } => Some((radius, length, p, k)),
+                Shape::Sphere { radius } => Some((radius, 2.0 * radius, p, k)),
                 Shape::Box { .. } => None,
             })
             .max_by(|a, b| a.0.total_cmp(&b.0));
         match round {
             Some(w) => wheels.push((i, w)),
-            None => skipped.push(format!(
-                "joint {:?} has a lateral axis but its link {:?} has no cylinder or sphere {}",
-                j.name,
-                node.link.name,
-                if geometry[i].meshes.is_empty() {
-                    "geometry".to_string()
-                } else {
-                    format!("(only mesh {})", geometry[i].meshes.join(", "))
-                }
-            )),
+            None => exclude(
+                format!(
+                    "it has a lateral axis but its link {:?} has no cylinder or sphere {}",
+                    node.link.name,
+                    if geometry[i].meshes.is_empty() {
+                        "geometry".to_string()
+                    } else {
+                        format!("(only mesh {})", geometry[i].meshes.join(", "))
+                    }
+                ),
+                true,
+            ),
         }
     }
-    let describe = |(i, (_, _, p)): &(usize, (f64, f64, &ShapeInstance))| {
+    let describe = |(i, (_, _, p, _)): &Candidate| {
         format!(
             "{} (link {}, y = {:.3} m)",
             nodes[*i].joint.map(|j| j.name.as_str()).unwrap_or_default(),
@@ -734,14 +1082,16 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
         ));
     }
     let mut made = Vec::with_capacity(2);
-    for &(i, (radius, width, p)) in &wheels {
+    for &(i, (radius, width, p, k)) in &wheels {
         let node = &nodes[i];
+        let field = &geometry[i].fields[k];
+        let joint = node.joint.map(|j| j.name.as_str()).unwrap_or_default();
         if let Shape::Cylinder { .. } = p.shape {
             let cyl_axis = p.pose.rotation * Vector3::z();
             if cyl_axis.dot(&node.axis).abs() <= LATERAL {
                 return Err(field_err(
                     source,
-                    format!("link[{}].collision", node.link.name),
+                    field.clone(),
                     format!(
                         "the wheel cylinder's axis ({:.3}, {:.3}, {:.3} in the base frame) is \
                              not along its joint's axis ({:.3}, {:.3}, {:.3})",
@@ -750,20 +1100,46 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
                 ));
             }
         }
-        made.push(Wheel {
-            joint: node.joint.map(|j| j.name.clone()).unwrap_or_default(),
-            link: node.link.name.clone(),
-            center: p.pose.translation.vector,
-            axis: node.axis,
-            radius,
-            width,
-            mass: node.link.inertial.mass.value,
-        });
+        if radius > MAX_WHEEL_RADIUS_M {
+            return Err(field_err(
+                source,
+                format!("{field}.radius"),
+                format!(
+                    "the drive wheel of joint {joint:?} has radius {} m, above the limit \
+                     of {MAX_WHEEL_RADIUS_M} m (MAX_WHEEL_RADIUS_M: a wheel taller than a 2 m \
+                     door cannot drive through an indoor world)",
+                    num(radius)
+                ),
+            ));
+        }
+        if radius < MIN_WHEEL_RADIUS_M {
+            return Err(field_err(
+                source,
+                format!("{field}.radius"),
+                format!(
+                    "the drive wheel of joint {joint:?} has radius {} m, below the limit \
+                     of {MIN_WHEEL_RADIUS_M} m (MIN_WHEEL_RADIUS_M)",
+                    num(radius)
+                ),
+            ));
+        }
+        made.push((
+            Wheel {
+                joint: joint.to_string(),
+                link: node.link.name.clone(),
+                center: p.pose.translation.vector,
+                axis: node.axis,
+                radius,
+                width,
+                mass: node.link.inertial.mass.value,
+            },
+            field.clone(),
+        ));
     }
-    let (mut left_wheel, mut right_wheel) = {
+    let ((mut left_wheel, left_field), (mut right_wheel, right_field)) = {
         let b = made.pop().expect("two wheels");
         let a = made.pop().expect("two wheels");
-        if a.center.y >= b.center.y {
+        if a.0.center.y >= b.0.center.y {
             (a, b)
         } else {
             (b, a)
@@ -779,6 +1155,50 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
                 listed.join(", ")
             ),
         ));
+    }
+    // ---- wheel separation and wheel size relative to it
+    let wheel_separation = (left_wheel.center.y - right_wheel.center.y).abs();
+    let origins = format!(
+        "joint[{}].origin.xyz, joint[{}].origin.xyz",
+        left_wheel.joint, right_wheel.joint
+    );
+    if wheel_separation.is_nan() || wheel_separation < MIN_WHEEL_SEPARATION_M {
+        return Err(field_err(
+            source,
+            origins,
+            format!(
+                "the drive wheels are {} m apart (the wheel separation); it must be at least \
+                 {MIN_WHEEL_SEPARATION_M} m (MIN_WHEEL_SEPARATION_M)",
+                num(wheel_separation)
+            ),
+        ));
+    }
+    let mean_width = 0.5 * (left_wheel.width + right_wheel.width);
+    if wheel_separation <= mean_width {
+        return Err(field_err(
+            source,
+            origins,
+            format!(
+                "the drive wheels overlap: their centres are {wheel_separation} m apart (the \
+                 wheel separation) but they are {mean_width} m wide"
+            ),
+        ));
+    }
+    for (w, field) in [(&left_wheel, &left_field), (&right_wheel, &right_field)] {
+        if w.radius > MAX_WHEEL_RADIUS_PER_SEPARATION * wheel_separation {
+            return Err(field_err(
+                source,
+                format!("{field}.radius"),
+                format!(
+                    "the drive wheel of joint {:?} has radius {} m, larger than \
+                     {MAX_WHEEL_RADIUS_PER_SEPARATION} × the wheel separation of {} m \
+                     (MAX_WHEEL_RADIUS_PER_SEPARATION)",
+                    w.joint,
+                    num(w.radius),
+                    num(wheel_separation)
+                ),
+            ));
+        }
     }
     let wheel_links = [left_wheel.link.clone(), right_wheel.link.clone()];
 
@@ -797,6 +1217,26 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
             ),
         ));
     }
+    if chassis_mass < MIN_MASS_KG {
+        return Err(invalid(
+            source,
+            format!(
+                "the chassis mass (sum of <inertial><mass> of every link except the drive \
+                 wheels) is {} kg, below the limit of {MIN_MASS_KG} kg (MIN_MASS_KG)",
+                num(chassis_mass)
+            ),
+        ));
+    }
+    if chassis_mass > MAX_MASS_KG {
+        return Err(invalid(
+            source,
+            format!(
+                "the chassis mass (sum of <inertial><mass> of every link except the drive \
+                 wheels) is {} kg, above the limit of {MAX_MASS_KG} kg (MAX_MASS_KG)",
+                num(chassis_mass)
+            ),
+        ));
+    }
     // Centre of mass of the chassis from the URDF inertials (not from collision volumes:
     // a heavy sensor on a light frame moves it, and with a single rear caster that decides
     // whether the robot tips forward when it brakes).
@@ -811,6 +1251,19 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
         .fold(Vector3::zeros(), |a, b| a + b)
         / chassis_mass;
     for w in [&mut left_wheel, &mut right_wheel] {
+        if w.mass > 0.0 && w.mass < MIN_MASS_KG {
+            return Err(field_err(
+                source,
+                format!("link[{}].inertial.mass.value", w.link),
+                format!(
+                    "the drive wheel of joint {:?} weighs {} kg, below the limit of \
+                     {MIN_MASS_KG} kg (MIN_MASS_KG); leave the mass out to get 2 % of the \
+                     chassis mass",
+                    w.joint,
+                    num(w.mass)
+                ),
+            ));
+        }
         if w.mass <= 0.0 {
             w.mass = DEFAULT_WHEEL_MASS_FRACTION * chassis_mass;
             warnings.push(format!(
@@ -821,7 +1274,6 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
     }
 
     let wheel_radius = 0.5 * (left_wheel.radius + right_wheel.radius);
-    let wheel_separation = (left_wheel.center.y - right_wheel.center.y).abs();
     let lift_left = left_wheel.radius - left_wheel.center.z;
     let lift_right = right_wheel.radius - right_wheel.center.z;
     if (lift_left - lift_right).abs() > 1e-3 {
@@ -909,14 +1361,17 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
 
     // ---- casters: one support sphere per caster, under its lowest primitive
     let mut casters = Vec::new();
-    for (root, _) in owner
-        .iter()
-        .enumerate()
-        .filter(|(i, o)| **o == Owner::Caster(*i))
-    {
-        let lowest = (0..nodes.len())
-            .filter(|&i| owner[i] == Owner::Caster(root))
-            .flat_map(|i| geometry[i].prims.iter())
+    // Every caster's links, grouped in one pass (by the caster's topmost link, in tree order).
+    let mut caster_links: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for (i, o) in owner.iter().enumerate() {
+        if let Owner::Caster(root) = o {
+            caster_links.entry(*root).or_default().push(i);
+        }
+    }
+    for (root, members) in caster_links {
+        let lowest = members
+            .iter()
+            .flat_map(|&i| geometry[i].prims.iter())
             .map(|p| (lowest_z(p), p))
             .min_by(|a, b| a.0.total_cmp(&b.0));
         let name = &nodes[root].link.name;
@@ -951,7 +1406,7 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
         })
         .collect();
 
-    Ok(RobotModel {
+    let model = RobotModel {
         name: robot.name.clone(),
         base_link: nodes[0].link.name.clone(),
         chassis_shapes,
@@ -965,7 +1420,42 @@ fn build(robot: &urdf_rs::Robot, facts: &XmlFacts, source: &str) -> Result<Robot
         wheel_separation,
         base_height,
         warnings,
-    })
+    };
+    Ok((model, excluded))
+}
+
+/// Refuses links and shapes that, though each `<origin>` and size is within
+/// [`MAX_LENGTH_M`], end up farther than that from the base link (long chains add up).
+fn check_reach(nodes: &[Node], geometry: &[LinkGeometry], source: &str) -> Result<(), RobotError> {
+    let base = &nodes[0].link.name;
+    for (node, g) in nodes.iter().zip(geometry) {
+        let d = node.pose.translation.vector.norm();
+        if let Some(j) = node.joint.filter(|_| d > MAX_LENGTH_M) {
+            return Err(field_err(
+                source,
+                format!("joint[{}].origin.xyz", j.name),
+                format!(
+                    "places link {:?} {d:.1} m from the base link {base:?}; a robot must fit \
+                     within {MAX_LENGTH_M} m of its base link (MAX_LENGTH_M)",
+                    node.link.name
+                ),
+            ));
+        }
+        for (p, field) in g.prims.iter().zip(&g.fields) {
+            let r = reach(p);
+            if r > MAX_LENGTH_M {
+                return Err(field_err(
+                    source,
+                    field.clone(),
+                    format!(
+                        "reaches {r:.1} m from the base link {base:?}; a robot must fit within \
+                         {MAX_LENGTH_M} m of its base link (MAX_LENGTH_M)"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -1206,5 +1696,258 @@ mod tests {
         let err = load_str(&substituted, "t.urdf").unwrap_err();
         assert!(matches!(err, RobotError::Xacro { .. }), "{err}");
         assert!(err.to_string().contains("line 6"), "{err}");
+    }
+
+    /// `robot("")` with the first occurrence of each `from` replaced by its `to`; the message
+    /// of the error it must give.
+    fn error_after(edits: &[(&str, &str)]) -> String {
+        let mut text = robot("");
+        for (from, to) in edits {
+            assert!(text.contains(from), "{from}");
+            text = text.replacen(from, to, 1);
+        }
+        match load_str(&text, "t.urdf") {
+            Ok(m) => panic!("expected an error after {edits:?}, loaded {m:?}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn absurd_numbers_are_refused_naming_link_field_and_limit() {
+        let inertia = r#"ixx="1" ixy="0""#;
+        let wheel = r#"radius="0.05" length="0.02""#;
+        let cases: &[(&str, &str, &[&str])] = &[
+            // Inertia: negative, NaN, infinite, absurd.
+            (
+                inertia,
+                r#"ixx="-1" ixy="0""#,
+                &["link[base].inertial.inertia.ixx", ">= 0"],
+            ),
+            (
+                inertia,
+                r#"ixx="NaN" ixy="0""#,
+                &["link[base].inertial.inertia.ixx", "finite"],
+            ),
+            (
+                inertia,
+                r#"ixx="inf" ixy="0""#,
+                &["link[base].inertial.inertia.ixx", "finite"],
+            ),
+            (
+                inertia,
+                r#"ixx="1" ixy="-1e300""#,
+                &["link[base].inertial.inertia.ixy", "MAX_INERTIA"],
+            ),
+            // Mass: NaN, infinite, absurd (negative is in `bad_numbers_name_link_and_field`).
+            (
+                r#"<mass value="5"/>"#,
+                r#"<mass value="NaN"/>"#,
+                &["link[base].inertial.mass.value", "finite"],
+            ),
+            (
+                r#"<mass value="5"/>"#,
+                r#"<mass value="-inf"/>"#,
+                &["link[base].inertial.mass.value", "finite"],
+            ),
+            (
+                r#"<mass value="5"/>"#,
+                r#"<mass value="1e300"/>"#,
+                &["link[base].inertial.mass.value", "10000 kg", "MAX_MASS_KG"],
+            ),
+            // Geometry sizes, wheel radii, joint origins.
+            (
+                r#"<box size="0.4 0.3 0.1"/>"#,
+                r#"<box size="1e300 0.3 0.1"/>"#,
+                &[
+                    "link[base].collision[0].geometry.box.size",
+                    "50 m",
+                    "MAX_LENGTH_M",
+                ],
+            ),
+            (
+                wheel,
+                r#"radius="1e300" length="0.02""#,
+                &[
+                    "link[wl].collision[0].geometry.cylinder.radius",
+                    "50 m",
+                    "MAX_LENGTH_M",
+                ],
+            ),
+            (
+                r#"<origin xyz="0 0.2 0.05"/>"#,
+                r#"<origin xyz="0 1e300 0.05"/>"#,
+                &["joint[jl].origin.xyz", "50 m", "MAX_LENGTH_M"],
+            ),
+            (
+                r#"<origin xyz="0 0.2 0.05"/>"#,
+                r#"<origin xyz="0 0.2 0.05" rpy="1e300 0 0"/>"#,
+                &["joint[jl].origin.rpy", "100 rad", "MAX_ANGLE_RAD"],
+            ),
+            (
+                r#"<origin xyz="0 0 0.1"/>"#,
+                r#"<origin xyz="0 0 -1e300"/>"#,
+                &["link[base].collision[0].origin.xyz", "MAX_LENGTH_M"],
+            ),
+        ];
+        for (from, to, expected) in cases {
+            let err = error_after(&[(from, to)]);
+            assert!(err.starts_with("t.urdf: "), "{err}");
+            for e in *expected {
+                assert!(err.contains(e), "{to}: expected {e:?} in {err}");
+            }
+        }
+    }
+
+    #[test]
+    fn zero_quaternion_is_refused() {
+        let text = robot("")
+            .replacen(
+                "<robot name=\"t\">",
+                "<robot name=\"t\" version=\"1.1\">",
+                1,
+            )
+            .replacen(
+                r#"<origin xyz="0 0.2 0.05"/>"#,
+                r#"<origin xyz="0 0.2 0.05" quat_xyzw="0 0 0 0"/>"#,
+                1,
+            );
+        let err = load_str(&text, "t.urdf").unwrap_err().to_string();
+        assert!(
+            err.contains("joint[jl].origin.quat_xyzw") && err.contains("QUAT_NORM_RANGE"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn tiny_axis_is_normalised_without_underflow() {
+        // |axis|² = 1e-400 underflows to 0: a naive normalisation gives NaN and loses the wheel.
+        let text = robot("").replacen(r#"<axis xyz="0 1 0"/>"#, r#"<axis xyz="0 1e-200 0"/>"#, 1);
+        let m = load_str(&text, "t.urdf").unwrap();
+        assert!(
+            (m.left_wheel.axis - Vector3::y()).norm() < 1e-12,
+            "{:?}",
+            m.left_wheel.axis
+        );
+    }
+
+    #[test]
+    fn wheel_separation_must_be_real() {
+        // Zero in all but name: 2e-300 m between the wheels.
+        let err = error_after(&[
+            (r#"xyz="0 0.2 0.05""#, r#"xyz="0 1e-300 0.05""#),
+            (r#"xyz="0 -0.2 0.05""#, r#"xyz="0 -1e-300 0.05""#),
+        ]);
+        for e in [
+            "joint[jl].origin.xyz, joint[jr].origin.xyz",
+            "wheel separation",
+            "MIN_WHEEL_SEPARATION_M",
+        ] {
+            assert!(err.contains(e), "{e}: {err}");
+        }
+        // 1.5 cm apart, 2 cm wide: the wheels overlap.
+        let err = error_after(&[
+            (r#"xyz="0 0.2 0.05""#, r#"xyz="0 0.0075 0.05""#),
+            (r#"xyz="0 -0.2 0.05""#, r#"xyz="0 -0.0075 0.05""#),
+        ]);
+        assert!(err.contains("overlap") && err.contains("0.015"), "{err}");
+    }
+
+    #[test]
+    fn huge_and_tiny_wheels_are_refused_at_load() {
+        let both = |r: &str| {
+            let to = format!(r#"radius="{r}" length="0.02""#);
+            let text = robot("").replace(r#"radius="0.05" length="0.02""#, &to);
+            load_str(&text, "t.urdf").unwrap_err().to_string()
+        };
+        // 3 m: within MAX_LENGTH_M, but a wheel 6 m tall.
+        let err = both("3");
+        for e in [
+            "link[wl].collision[0].geometry.cylinder.radius",
+            "drive wheel of joint \"jl\"",
+            "radius 3 m",
+            "MAX_WHEEL_RADIUS_M",
+        ] {
+            assert!(err.contains(e), "{e}: {err}");
+        }
+        // 0.5 m wheels 0.4 m apart.
+        let err = both("0.5");
+        assert!(err.contains("MAX_WHEEL_RADIUS_PER_SEPARATION"), "{err}");
+        assert!(err.contains("separation of 0.4"), "{err}");
+        let err = both("0.001");
+        assert!(err.contains("MIN_WHEEL_RADIUS_M"), "{err}");
+    }
+
+    #[test]
+    fn links_beyond_the_robot_size_limit_are_refused() {
+        // Each joint origin is within MAX_LENGTH_M, but the chain reaches 120 m.
+        let extra = r#"<link name="a"/><link name="b"/><link name="c"/>
+  <joint name="ja" type="fixed"><parent link="base"/><child link="a"/><origin xyz="40 0 0"/></joint>
+  <joint name="jb" type="fixed"><parent link="a"/><child link="b"/><origin xyz="40 0 0"/></joint>
+  <joint name="jc" type="fixed"><parent link="b"/><child link="c"/><origin xyz="40 0 0"/></joint>"#;
+        let err = load_str(&robot(extra), "t.urdf").unwrap_err().to_string();
+        assert!(
+            err.contains("joint[jb].origin.xyz") && err.contains("places link \"b\" 80.0 m"),
+            "{err}"
+        );
+        assert!(err.contains("MAX_LENGTH_M"), "{err}");
+        // A 40 m box 30 m out.
+        let extra = r#"<link name="far"><collision><geometry><box size="40 1 1"/></geometry></collision></link>
+  <joint name="jf" type="fixed"><parent link="base"/><child link="far"/><origin xyz="30 0 0"/></joint>"#;
+        let err = load_str(&robot(extra), "t.urdf").unwrap_err().to_string();
+        assert!(
+            err.contains("link[far].collision[0].geometry.box") && err.contains("reaches"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn excluded_wheel_joints_say_why() {
+        let extra = r#"<link name="fork"/>
+  <link name="roller"><collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="0.03" length="0.02"/></geometry></collision></link>
+  <joint name="swivel" type="continuous"><parent link="base"/><child link="fork"/><origin xyz="-0.2 0 0.04"/><axis xyz="0 0 1"/></joint>
+  <joint name="roll" type="continuous"><parent link="fork"/><child link="roller"/><origin xyz="-0.02 0 -0.01"/><axis xyz="0 1 0"/></joint>
+  <link name="front_caster_wheel"><collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="0.02" length="0.01"/></geometry></collision></link>
+  <joint name="jc" type="continuous"><parent link="base"/><child link="front_caster_wheel"/><origin xyz="0.2 0 0.02"/><axis xyz="0 1 0"/></joint>
+  <link name="flap"><collision><geometry><box size="0.1 0.1 0.01"/></geometry></collision></link>
+  <joint name="jflap" type="revolute"><parent link="base"/><child link="flap"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>"#;
+        let r = RobotModel::from_urdf_str(&robot(extra), "t.urdf").unwrap();
+        let i = RobotModel::inspect_urdf_str(&robot(extra), "t.urdf").unwrap();
+        assert_eq!(i.model, r, "the same model either way");
+        let reason = |joint: &str| {
+            let found: Vec<&ExcludedJoint> = i
+                .excluded_joints
+                .iter()
+                .filter(|e| e.joint == joint)
+                .collect();
+            assert_eq!(found.len(), 1, "{joint}: {:?}", i.excluded_joints);
+            found[0].reason.clone()
+        };
+        assert!(
+            reason("swivel").contains("not lateral"),
+            "{}",
+            reason("swivel")
+        );
+        assert!(
+            reason("roll").contains("below the swivel joint \"swivel\""),
+            "{}",
+            reason("roll")
+        );
+        assert!(
+            reason("jc").contains("link name contains \"caster\""),
+            "{}",
+            reason("jc")
+        );
+        assert!(
+            reason("jflap").contains("no cylinder or sphere geometry"),
+            "{}",
+            reason("jflap")
+        );
+        assert_eq!(i.excluded_joints.len(), 4, "drive wheels are not listed");
+        let roll = i
+            .excluded_joints
+            .iter()
+            .find(|e| e.joint == "roll")
+            .unwrap();
+        assert_eq!(roll.link, "roller");
     }
 }

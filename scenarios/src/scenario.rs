@@ -650,6 +650,11 @@ impl Scenario {
                 format!("must be between 0.01 and 1 m, got {}", raw.map.resolution),
             ));
         }
+        // A world too large for its map at this resolution is refused now, with the size it
+        // would need, rather than handing the localizers an empty grid.
+        world
+            .grid_size(raw.map.resolution)
+            .map_err(|e| ScenarioError::field(file, "map.resolution", e.to_string()))?;
 
         let initial_belief = match raw.initial_belief {
             None => InitialBelief::Tracking {

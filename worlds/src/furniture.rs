@@ -63,19 +63,12 @@ impl FurnitureBox {
 
     /// Checks the numbers; the error is (key, message).
     pub fn validate(&self, ceiling_height: f64) -> Result<(), (&'static str, String)> {
-        if !(self.center[0].is_finite() && self.center[1].is_finite()) {
-            return Err((
-                "center",
-                format!(
-                    "coordinates must be finite numbers, got [{}, {}]",
-                    self.center[0], self.center[1]
-                ),
-            ));
-        }
+        crate::loader::check_coordinates(&self.center).map_err(|msg| ("center", msg))?;
         for (k, v) in self.size.iter().enumerate() {
             if !(v.is_finite() && *v > 0.0) {
                 return Err(("size", format!("size[{k}] must be finite and > 0, got {v}")));
             }
+            crate::loader::check_length(*v).map_err(|msg| ("size", format!("size[{k}] {msg}")))?;
         }
         if self.size[2] > ceiling_height {
             return Err((

@@ -13,6 +13,7 @@ pub mod world;
 
 pub use error::{MapError, WorldError};
 pub use furniture::FurnitureBox;
-pub use map::{Cell, OccupancyGrid, Segment, VectorMap};
+pub use loader::{MAX_COORDINATE_M, MAX_POLYGON_POINTS, MIN_SIZE_M};
+pub use map::{Cell, GridSize, OccupancyGrid, Segment, VectorMap};
 pub use wifi::{AccessPoint, WifiEnvironment};
 pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World, CAMPUS_TOML};

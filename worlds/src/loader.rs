@@ -30,8 +30,13 @@
 //!
 //! Every table denies unknown keys, so a misspelt key is an error naming it. Errors name the
 //! file, the field path (`walls[3].thickness`, indices from 0 in file order) and the line.
+//!
+//! Limits: every coordinate and length within ±[`MAX_COORDINATE_M`] (10 km), every length at
+//! least [`MIN_SIZE_M`] (1 mm), region polygons simple and of at most [`MAX_POLYGON_POINTS`]
+//! corners. Whether a world's occupancy grid fits at a resolution is
+//! [`World::grid_size`](crate::World::grid_size).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::Path;
 
 use serde::Deserialize;
@@ -46,6 +51,90 @@ use crate::world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, W
 const MIN_LENGTH: f64 = 1e-9;
 /// Smaller than this, a region polygon is treated as having no area (m²).
 const MIN_AREA: f64 = 1e-9;
+/// Largest |coordinate| and length anywhere in a world (m): wall points, pillar, box, light and
+/// access point positions, region corners, thicknesses, radii, sizes, heights. 10 km is larger
+/// than any building, and it is where the simulator's f32 physics still resolves about a
+/// millimetre (at 1e5 m it would be 8 mm, as coarse as the sensors' noise); beyond it numbers
+/// like 1e300 turn into inf in bounds, areas and grids.
+pub const MAX_COORDINATE_M: f64 = 1e4;
+/// Smallest length (m): wall thickness, pillar radius, box size, heights. A wall thinner than
+/// a millimetre is a typo (mm for m) or garbage such as 5e-324, and at [`MAX_COORDINATE_M`]
+/// the simulator's f32 physics resolves about a millimetre.
+pub const MIN_SIZE_M: f64 = 1e-3;
+/// Most corners a region polygon may have. The simplicity check compares every pair of edges
+/// (n²/2): 1,000 corners take about a millisecond, 100,000 would take seconds per region. Real
+/// regions have a few dozen.
+pub const MAX_POLYGON_POINTS: usize = 1_000;
+
+/// Checks a point against [`MAX_COORDINATE_M`]; the error is the message.
+pub(crate) fn check_coordinates(p: &[f64]) -> Result<(), String> {
+    if !p.iter().all(|v| v.is_finite()) {
+        return Err(format!(
+            "coordinates must be finite numbers, got {}",
+            show(p)
+        ));
+    }
+    if p.iter().any(|v| v.abs() > MAX_COORDINATE_M) {
+        return Err(format!(
+            "coordinates must be within ±{MAX_COORDINATE_M} m (MAX_COORDINATE_M), got {}",
+            show(p)
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a length (thickness, radius, size, height) against [`MIN_SIZE_M`] and
+/// [`MAX_COORDINATE_M`].
+pub(crate) fn check_length(v: f64) -> Result<f64, String> {
+    if !v.is_finite() {
+        Err(format!("must be a finite number, got {v}"))
+    } else if v <= 0.0 {
+        Err(format!("must be > 0, got {}", num(v)))
+    } else if v < MIN_SIZE_M {
+        Err(format!(
+            "must be at least {MIN_SIZE_M} m (MIN_SIZE_M), got {}",
+            num(v)
+        ))
+    } else if v > MAX_COORDINATE_M {
+        Err(format!(
+            "must be at most {MAX_COORDINATE_M} m (MAX_COORDINATE_M), got {}",
+            num(v)
+        ))
+    } else {
+        Ok(v)
+    }
+}
+
+/// Longest line of a TOML parse message: the parser quotes the offending source line, which
+/// in a hostile file may be megabytes long.
+const MAX_MESSAGE_LINE: usize = 200;
+
+/// `msg` with every line longer than [`MAX_MESSAGE_LINE`] characters cut short.
+fn clip_lines(msg: &str) -> String {
+    msg.lines()
+        .map(|line| match line.char_indices().nth(MAX_MESSAGE_LINE) {
+            Some((cut, _)) => format!("{}…", &line[..cut]),
+            None => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// `[a, b]` with [`num`] formatting (`[inf, 0]`, `[1e300, 2]`).
+fn show(p: &[f64]) -> String {
+    let parts: Vec<String> = p.iter().map(|&v| num(v)).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// A number for a message: plain for everyday magnitudes, in exponent form for huge or tiny
+/// ones (`1e300`, not three hundred digits).
+pub(crate) fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e16).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -154,38 +243,26 @@ impl Ctx<'_> {
         }
     }
 
-    fn positive(&self, field: &str, at: Option<usize>, v: f64) -> Result<f64, WorldError> {
-        let v = self.finite(field, at, v)?;
-        if v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.err(field, at, format!("must be > 0, got {v}")))
-        }
+    /// A length: finite, > 0 and at most [`MAX_COORDINATE_M`].
+    fn length(&self, field: &str, at: Option<usize>, v: f64) -> Result<f64, WorldError> {
+        check_length(v).map_err(|msg| self.err(field, at, msg))
     }
 
     fn point(&self, field: &str, at: Option<usize>, p: [f64; 2]) -> Result<[f64; 2], WorldError> {
-        if p[0].is_finite() && p[1].is_finite() {
-            Ok(p)
-        } else {
-            Err(self.err(
-                field,
-                at,
-                format!(
-                    "coordinates must be finite numbers, got [{}, {}]",
-                    p[0], p[1]
-                ),
-            ))
-        }
+        check_coordinates(&p).map_err(|msg| self.err(field, at, msg))?;
+        Ok(p)
     }
 
+    /// `names` holds the names of `materials` (a set, so that checking every wall of a large
+    /// world against many materials stays linear).
     fn material_ref(
         &self,
         field: &str,
         at: Option<usize>,
         name: &str,
-        materials: &[Material],
+        (names, materials): (&HashSet<&str>, &[Material]),
     ) -> Result<(), WorldError> {
-        if materials.iter().any(|m| m.name == name) {
+        if names.contains(name) {
             return Ok(());
         }
         let known = if materials.is_empty() {
@@ -229,16 +306,33 @@ impl Ctx<'_> {
                 format!("a polygon needs at least 3 points, got {}", polygon.len()),
             ));
         }
-        let area = polygon_area(&polygon);
-        if area.abs() < MIN_AREA {
-            return Err(self.err(path, at, format!("polygon has zero area (got {area} m²)")));
+        if polygon.len() > MAX_POLYGON_POINTS {
+            return Err(self.err(
+                path,
+                at,
+                format!(
+                    "a polygon may have at most {MAX_POLYGON_POINTS} points \
+                     (MAX_POLYGON_POINTS), got {}",
+                    polygon.len()
+                ),
+            ));
         }
+        // Self-intersection first: a bow-tie's two lobes cancel in the signed area, and
+        // "zero area" would not say why.
         if let Some((i, j)) = polygon_self_intersection(&polygon) {
             return Err(self.err(
                 path,
                 at,
-                format!("polygon is not simple: edges {i} and {j} intersect"),
+                format!(
+                    "polygon is self-intersecting: edges {i} and {j} cross or touch (edge k \
+                     runs from point k to point k + 1); list the corners in order around the \
+                     region"
+                ),
             ));
+        }
+        let area = polygon_area(&polygon);
+        if area.abs() < MIN_AREA {
+            return Err(self.err(path, at, format!("polygon has zero area (got {area} m²)")));
         }
         Ok(polygon)
     }
@@ -258,7 +352,7 @@ impl World {
     pub fn from_toml_str(text: &str, file: &Path) -> Result<World, WorldError> {
         let raw: RawWorld = toml::from_str(text).map_err(|e| WorldError::Parse {
             file: file.to_path_buf(),
-            msg: e.to_string().trim_end().to_string(),
+            msg: clip_lines(e.to_string().trim_end()),
         })?;
         let ctx = Ctx {
             file,
@@ -269,7 +363,7 @@ impl World {
         if name.is_empty() {
             return Err(ctx.err("name", Some(raw.name.span().start), "must not be empty"));
         }
-        let ceiling_height = ctx.positive(
+        let ceiling_height = ctx.length(
             "ceiling_height",
             Some(raw.ceiling_height.span().start),
             *raw.ceiling_height.get_ref(),
@@ -315,6 +409,7 @@ impl World {
             });
         }
 
+        let material_names: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
         if raw.walls.is_empty() {
             return Err(ctx.err("walls", None, "at least one [[walls]] entry is required"));
         }
@@ -336,12 +431,17 @@ impl World {
             for (k, &p) in w.points.iter().enumerate() {
                 ctx.point(&format!("{path}.points[{k}]"), at, p)?;
             }
-            let thickness = ctx.positive(&format!("{path}.thickness"), at, w.thickness)?;
+            let thickness = ctx.length(&format!("{path}.thickness"), at, w.thickness)?;
             let height = match w.height {
-                Some(h) => ctx.positive(&format!("{path}.height"), at, h)?,
+                Some(h) => ctx.length(&format!("{path}.height"), at, h)?,
                 None => ceiling_height,
             };
-            ctx.material_ref(&format!("{path}.material"), at, &w.material, &materials)?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                at,
+                &w.material,
+                (&material_names, &materials),
+            )?;
             for (k, pair) in w.points.windows(2).enumerate() {
                 let (a, b) = (pair[0], pair[1]);
                 if (b[0] - a[0]).hypot(b[1] - a[1]) < MIN_LENGTH {
@@ -370,12 +470,17 @@ impl World {
             let at = Some(item.span().start);
             let p: RawPillar = ctx.typed(&path, item)?;
             let center = ctx.point(&format!("{path}.center"), at, p.center)?;
-            let radius = ctx.positive(&format!("{path}.radius"), at, p.radius)?;
+            let radius = ctx.length(&format!("{path}.radius"), at, p.radius)?;
             let height = match p.height {
-                Some(h) => ctx.positive(&format!("{path}.height"), at, h)?,
+                Some(h) => ctx.length(&format!("{path}.height"), at, h)?,
                 None => ceiling_height,
             };
-            ctx.material_ref(&format!("{path}.material"), at, &p.material, &materials)?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                at,
+                &p.material,
+                (&material_names, &materials),
+            )?;
             pillars.push(Pillar {
                 center,
                 radius,
@@ -385,6 +490,7 @@ impl World {
         }
 
         let mut regions: Vec<Region> = Vec::with_capacity(raw.regions.len());
+        let mut region_index: HashMap<String, usize> = HashMap::new();
         for (i, item) in raw.regions.iter().enumerate() {
             let path = format!("regions[{i}]");
             let at = Some(item.span().start);
@@ -393,7 +499,7 @@ impl World {
             if rname.is_empty() {
                 return Err(ctx.err(format!("{path}.name"), at, "must not be empty"));
             }
-            if let Some(j) = regions.iter().position(|q| q.name == rname) {
+            if let Some(j) = region_index.insert(rname.clone(), i) {
                 return Err(ctx.err(
                     format!("{path}.name"),
                     at,
@@ -409,6 +515,7 @@ impl World {
         }
 
         let mut access_points: Vec<AccessPoint> = Vec::with_capacity(raw.access_points.len());
+        let mut ap_index: HashMap<String, usize> = HashMap::new();
         for (i, item) in raw.access_points.iter().enumerate() {
             let path = format!("access_points[{i}]");
             let at = Some(item.span().start);
@@ -416,7 +523,7 @@ impl World {
             ap.name = ap.name.trim().to_string();
             ap.validate(ceiling_height)
                 .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
-            if let Some(j) = access_points.iter().position(|q| q.name == ap.name) {
+            if let Some(j) = ap_index.insert(ap.name.clone(), i) {
                 return Err(ctx.err(
                     format!("{path}.name"),
                     at,
@@ -446,7 +553,12 @@ impl World {
             let b: crate::furniture::FurnitureBox = ctx.typed(&path, item)?;
             b.validate(ceiling_height)
                 .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), at, msg))?;
-            ctx.material_ref(&format!("{path}.material"), at, &b.material, &materials)?;
+            ctx.material_ref(
+                &format!("{path}.material"),
+                at,
+                &b.material,
+                (&material_names, &materials),
+            )?;
             boxes.push(b);
         }
 
@@ -463,7 +575,7 @@ impl World {
             let path = format!("surfaces.{sname}");
             let at = Some(item.span().start);
             if sname != "floor" && sname != "ceiling" {
-                ctx.material_ref(&path, at, sname, &materials)?;
+                ctx.material_ref(&path, at, sname, (&material_names, &materials))?;
             }
             let s: crate::lighting::Surface = ctx.typed(&path, item)?;
             s.validate()
@@ -496,9 +608,10 @@ impl World {
         if self.name.trim().is_empty() {
             return Err(ctx.err("name", None, "must not be empty"));
         }
-        ctx.positive("ceiling_height", None, self.ceiling_height)?;
+        ctx.length("ceiling_height", None, self.ceiling_height)?;
+        let mut material_names: HashSet<&str> = HashSet::new();
         for (i, m) in self.materials.iter().enumerate() {
-            if self.materials[..i].iter().any(|q| q.name == m.name) {
+            if !material_names.insert(m.name.as_str()) {
                 return Err(ctx.err(
                     format!("materials[{i}].name"),
                     None,
@@ -534,35 +647,33 @@ impl World {
             if (w.b[0] - w.a[0]).hypot(w.b[1] - w.a[1]) < MIN_LENGTH {
                 return Err(ctx.err(path, None, "zero-length wall: a == b"));
             }
-            ctx.positive(&format!("{path}.thickness"), None, w.thickness)?;
-            ctx.positive(&format!("{path}.height"), None, w.height)?;
+            ctx.length(&format!("{path}.thickness"), None, w.thickness)?;
+            ctx.length(&format!("{path}.height"), None, w.height)?;
             ctx.material_ref(
                 &format!("{path}.material"),
                 None,
                 &w.material,
-                &self.materials,
+                (&material_names, &self.materials),
             )?;
         }
         for (i, p) in self.pillars.iter().enumerate() {
             let path = format!("pillars[{i}]");
             ctx.point(&format!("{path}.center"), None, p.center)?;
-            ctx.positive(&format!("{path}.radius"), None, p.radius)?;
-            ctx.positive(&format!("{path}.height"), None, p.height)?;
+            ctx.length(&format!("{path}.radius"), None, p.radius)?;
+            ctx.length(&format!("{path}.height"), None, p.height)?;
             ctx.material_ref(
                 &format!("{path}.material"),
                 None,
                 &p.material,
-                &self.materials,
+                (&material_names, &self.materials),
             )?;
         }
+        let mut ap_index: HashMap<&str, usize> = HashMap::new();
         for (i, ap) in self.access_points.iter().enumerate() {
             let path = format!("access_points[{i}]");
             ap.validate(self.ceiling_height)
                 .map_err(|(key, msg)| ctx.err(format!("{path}.{key}"), None, msg))?;
-            if let Some(j) = self.access_points[..i]
-                .iter()
-                .position(|q| q.name == ap.name)
-            {
+            if let Some(j) = ap_index.insert(ap.name.as_str(), i) {
                 return Err(ctx.err(
                     format!("{path}.name"),
                     None,
@@ -584,15 +695,16 @@ impl World {
                 &format!("{path}.material"),
                 None,
                 &b.material,
-                &self.materials,
+                (&material_names, &self.materials),
             )?;
         }
+        let mut region_index: HashMap<&str, usize> = HashMap::new();
         for (i, r) in self.regions.iter().enumerate() {
             let path = format!("regions[{i}]");
             if r.name.trim().is_empty() {
                 return Err(ctx.err(format!("{path}.name"), None, "must not be empty"));
             }
-            if let Some(j) = self.regions[..i].iter().position(|q| q.name == r.name) {
+            if let Some(j) = region_index.insert(r.name.as_str(), i) {
                 return Err(ctx.err(
                     format!("{path}.name"),
                     None,
@@ -815,8 +927,9 @@ polygon = [[5.0, 0.0], [10.0, 0.0], [10.0, 8.0], [5.0, 8.0]]
                 "# r0 polygon",
                 "polygon = [[0.0, 0.0], [4.0, 2.0], [4.0, 0.0], [0.0, 3.0]]"
             ),
-            "test.toml: regions[0].polygon: polygon is not simple: edges 0 and 2 intersect \
-             (entry at line 31)"
+            "test.toml: regions[0].polygon: polygon is self-intersecting: edges 0 and 2 cross \
+             or touch (edge k runs from point k to point k + 1); list the corners in order \
+             around the region (entry at line 31)"
         );
         assert_eq!(
             error_with(
@@ -891,5 +1004,195 @@ polygon = [[5.0, 0.0], [10.0, 0.0], [10.0, 8.0], [5.0, 8.0]]
         let mut w = load(BASE).unwrap();
         w.walls[0].b = w.walls[0].a;
         assert!(w.validate(Path::new("<gen>")).is_err());
+    }
+
+    #[test]
+    fn bow_tie_region_is_reported_as_self_intersecting() {
+        // Its two lobes cancel in the signed area: this used to say "zero area".
+        let e = error_with(
+            "# r0 polygon",
+            "polygon = [[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0]]",
+        );
+        assert!(
+            e.starts_with(
+                "test.toml: regions[0].polygon: polygon is self-intersecting: edges 0 and 2"
+            ),
+            "{e}"
+        );
+        assert!(!e.contains("zero area"), "{e}");
+        // Built in code: the same.
+        let mut w = load(BASE).unwrap();
+        w.regions[1].polygon = vec![[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0]];
+        let e = w.validate(Path::new("<gen>")).unwrap_err().to_string();
+        assert!(
+            e.contains("regions[1].polygon: polygon is self-intersecting"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn absurd_coordinates_and_sizes_are_refused_naming_the_field() {
+        let limit = "must be within ±10000 m (MAX_COORDINATE_M)";
+        let cases: &[(&str, &str, &str)] = &[
+            (
+                "# w0 points",
+                "points = [[0.0, 0.0], [1e300, 0.0]]",
+                "walls[0].points[1]",
+            ),
+            (
+                "# w0 points",
+                "points = [[0.0, -1e5], [1.0, 0.0]]",
+                "walls[0].points[0]",
+            ),
+            (
+                "# r0 polygon",
+                "polygon = [[0.0, 0.0], [1e300, 0.0], [1e300, 1e300]]",
+                "regions[0].polygon[1]",
+            ),
+        ];
+        for (tag, line, field) in cases {
+            let e = error_with(tag, line);
+            assert!(
+                e.starts_with(&format!("test.toml: {field}: coordinates {limit}")),
+                "{e}"
+            );
+        }
+        let sizes: &[(&str, &str, &str)] = &[
+            ("# w3 thickness", "thickness = 1e300", "walls[3].thickness"),
+            ("# w1 height", "height = 2e4", "walls[1].height"),
+            ("# p0 radius", "radius = 1e300", "pillars[0].radius"),
+            ("# ceiling", "ceiling_height = 1e300", "ceiling_height"),
+        ];
+        let e = error_with("# p0 radius", "radius = 5e-324");
+        assert_eq!(
+            e,
+            "test.toml: pillars[0].radius: must be at least 0.001 m (MIN_SIZE_M), got 5e-324 \
+             (entry at line 27)"
+        );
+        for (tag, line, field) in sizes {
+            let e = error_with(tag, line);
+            assert!(
+                e.starts_with(&format!(
+                    "test.toml: {field}: must be at most 10000 m (MAX_COORDINATE_M)"
+                )),
+                "{e}"
+            );
+        }
+        // Tables validated by their own types: pillars, boxes, access points, lights.
+        let extra: &[(&str, &str)] = &[
+            (
+                "[[pillars]]\ncenter = [1e300, 5.0]\nradius = 0.3\nmaterial = \"concrete\"\n",
+                "pillars[1].center: coordinates must be within",
+            ),
+            (
+                "[[boxes]]\ncenter = [1.0, -1e300]\nsize = [1.0, 1.0, 1.0]\nmaterial = \"concrete\"\n",
+                "boxes[0].center: coordinates must be within",
+            ),
+            (
+                "[[boxes]]\ncenter = [1.0, 1.0]\nsize = [1e300, 1.0, 1.0]\nmaterial = \"concrete\"\n",
+                "boxes[0].size: size[0] must be at most 10000 m",
+            ),
+            (
+                "[[access_points]]\nname = \"a\"\nposition = [1e300, 1.0, 2.0]\ntx_power_dbm = -40.0\n\
+                 path_loss_exponent = 2.5\nchannel = 1\n",
+                "access_points[0].position: coordinates must be within",
+            ),
+            (
+                "[[lights]]\nkind = \"bulb\"\nfrom = [1e300, 1.0, 2.0]\n",
+                "lights[0].from: coordinates must be within",
+            ),
+            (
+                "[[lights]]\nkind = \"tube\"\nfrom = [1.0, 1.0, 2.0]\nto = [1.0, 1e300, 2.0]\n",
+                "lights[0].to: coordinates must be within",
+            ),
+        ];
+        for (table, expected) in extra {
+            let e = load(&format!("{BASE}{table}")).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("test.toml: {expected}")), "{e}");
+            assert!(e.contains("MAX_COORDINATE_M"), "{e}");
+        }
+        // Built in code: the same limits.
+        let mut w = load(BASE).unwrap();
+        w.walls[2].b = [1e300, 8.0];
+        let e = w.validate(Path::new("<gen>")).unwrap_err().to_string();
+        assert!(
+            e.starts_with("<gen>: walls[2].b: coordinates must be within"),
+            "{e}"
+        );
+        // Up to the limit is fine.
+        let far = BASE.replace("[5.0, 0.0], [5.0, 3.0]", "[5.0, 0.0], [5.0, -10000.0]");
+        assert!(load(&far).is_ok());
+    }
+
+    #[test]
+    fn polygon_corner_count_is_bounded() {
+        // A circle of MAX_POLYGON_POINTS + 1 corners: simple, but too many to check cheaply.
+        let n = MAX_POLYGON_POINTS + 1;
+        let corners: Vec<String> = (0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                format!("[{}, {}]", 5.0 + 2.0 * a.cos(), 4.0 + 2.0 * a.sin())
+            })
+            .collect();
+        let e = error_with(
+            "# r0 polygon",
+            &format!("polygon = [{}]", corners.join(", ")),
+        );
+        assert!(
+            e.starts_with("test.toml: regions[0].polygon: a polygon may have at most 1000 points"),
+            "{e}"
+        );
+        let ok: Vec<String> = corners[..MAX_POLYGON_POINTS].to_vec();
+        let text = BASE.replace(
+            "polygon = [[0.0, 0.0], [5.0, 0.0], [5.0, 8.0], [0.0, 8.0], [0.0, 0.0]] # r0 polygon",
+            &format!("polygon = [{}]", ok.join(", ")),
+        );
+        assert!(load(&text).is_ok());
+    }
+
+    #[test]
+    fn parse_errors_do_not_echo_megabyte_lines() {
+        let text = format!(
+            "name = \"x\"\nceiling_height = 3.0\nfoo = {}1{}\n",
+            "[".repeat(100_000),
+            "]".repeat(100_000)
+        );
+        let e = load(&text).unwrap_err().to_string();
+        assert!(e.starts_with("test.toml: malformed TOML:"), "{e}");
+        assert!(e.len() < 2_000, "{} bytes", e.len());
+        assert!(
+            e.lines().all(|l| l.chars().count() <= MAX_MESSAGE_LINE + 1),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn many_regions_and_materials_load() {
+        // 20,000 regions and 20,000 materials with a wall each: the duplicate and material
+        // look-ups (linear searches once, quadratic in all) are hash look-ups now.
+        let n = 20_000;
+        let mut text = String::from("name = \"big\"\nceiling_height = 3.0\n");
+        for k in 0..n {
+            text.push_str(&format!("[materials.m{k}]\nlaser = \"opaque\"\n"));
+        }
+        for k in 0..n {
+            let (y, y2) = (0.25 * k as f64, 0.25 * k as f64 + 0.1);
+            text.push_str(&format!(
+                "[[walls]]\npoints = [[0.0, {y}], [1.0, {y}]]\nthickness = 0.1\nmaterial = \"m{k}\"\n\
+                 [[regions]]\nname = \"r{k}\"\nkind = \"room\"\npolygon = [[0.0, {y}], [1.0, {y}], [1.0, {y2}]]\n"
+            ));
+        }
+        let w = load(&text).unwrap();
+        assert_eq!(
+            (w.walls.len(), w.regions.len(), w.materials.len()),
+            (n, n, n)
+        );
+        w.validate(Path::new("<big>")).unwrap();
+        let dup = text.replacen("name = \"r7\"", "name = \"r3\"", 1);
+        let e = load(&dup).unwrap_err().to_string();
+        assert!(
+            e.contains("regions[7].name: duplicate region name \"r3\" (also regions[3])"),
+            "{e}"
+        );
     }
 }

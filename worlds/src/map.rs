@@ -42,6 +42,23 @@ pub struct OccupancyGrid {
     pub cells: Vec<Cell>,
 }
 
+/// The frame and size of an occupancy grid, known before it is built
+/// ([`World::grid_size`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridSize {
+    pub origin: [f64; 2],
+    pub resolution: f64,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl GridSize {
+    /// Number of cells (one byte each in an [`OccupancyGrid`]).
+    pub fn cells(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+}
+
 /// Pillars enter the vector map as regular polygons with this many sides.
 pub const PILLAR_SIDES: usize = 16;
 /// Margin around the world's bounds in an occupancy grid, metres.
@@ -88,9 +105,11 @@ impl World {
     /// centre lies in a solid or a solid passes through it (so walls thinner than a cell still
     /// show), Free otherwise. Glass is left out when `include_glass` is false.
     ///
-    /// Infallible for callers that validated `resolution`; when it is not finite and > 0, or
-    /// the grid would exceed [`MAX_GRID_CELLS`], the result is an empty grid (0 × 0, every
-    /// query Unknown). Use [`World::try_occupancy_grid`] to get the reason instead.
+    /// Infallible for callers that checked [`World::grid_size`] (do that where the resolution
+    /// is chosen, e.g. when a scenario is loaded, to report a grid that is too large with its
+    /// size). When the resolution is not finite and > 0, the grid would exceed
+    /// [`MAX_GRID_CELLS`] or its memory cannot be allocated, the result is an empty grid
+    /// (0 × 0, every query Unknown); [`World::try_occupancy_grid`] gives the reason instead.
     pub fn occupancy_grid(&self, resolution: f64, include_glass: bool) -> OccupancyGrid {
         self.try_occupancy_grid(resolution, include_glass)
             .unwrap_or_else(|_| OccupancyGrid {
@@ -102,13 +121,11 @@ impl World {
             })
     }
 
-    /// [`World::occupancy_grid`], with an error for a bad resolution, an oversized grid or a
-    /// world without solids.
-    pub fn try_occupancy_grid(
-        &self,
-        resolution: f64,
-        include_glass: bool,
-    ) -> Result<OccupancyGrid, MapError> {
+    /// The frame and size [`World::occupancy_grid`] would have at `resolution`, without
+    /// building it: an error for a bad resolution, a world without solids, or a grid of more
+    /// than [`MAX_GRID_CELLS`] cells (the error says how many cells it would need and the
+    /// finest resolution that fits).
+    pub fn grid_size(&self, resolution: f64) -> Result<GridSize, MapError> {
         if !(resolution.is_finite() && resolution > 0.0) {
             return Err(MapError::Resolution(resolution));
         }
@@ -116,24 +133,97 @@ impl World {
             return Err(MapError::Empty);
         }
         let (lo, hi) = self.bounds();
+        if !lo.iter().chain(&hi).all(|v| v.is_finite()) {
+            return Err(MapError::NotFinite { lo, hi });
+        }
         let origin = [lo[0] - GRID_MARGIN, lo[1] - GRID_MARGIN];
+        let extent = [
+            hi[0] - lo[0] + 2.0 * GRID_MARGIN,
+            hi[1] - lo[1] + 2.0 * GRID_MARGIN,
+        ];
         // The tolerance keeps an extent that is a whole number of cells (6.0 / 0.1 evaluates
         // to 60.000000000000007) from growing a column of rounding error.
-        let wf = ((hi[0] - lo[0] + 2.0 * GRID_MARGIN) / resolution - 1e-9).ceil();
-        let hf = ((hi[1] - lo[1] + 2.0 * GRID_MARGIN) / resolution - 1e-9).ceil();
+        let count = |r: f64| ((extent[0] / r - 1e-9).ceil(), (extent[1] / r - 1e-9).ceil());
+        let (wf, hf) = count(resolution);
         if wf * hf > MAX_GRID_CELLS as f64 {
+            // Finest resolution that fits: from the area, then up to 3 significant digits
+            // (the cell count only falls as the resolution grows).
+            let mut r = (extent[0] * extent[1] / MAX_GRID_CELLS as f64).sqrt();
+            let fits = |r: f64| {
+                let (w, h) = count(r);
+                w * h <= MAX_GRID_CELLS as f64
+            };
+            for _ in 0..1000 {
+                if fits(r) || !r.is_finite() {
+                    break;
+                }
+                r *= 1.001;
+            }
+            // Rounded up to 3 significant digits, as k / 10^n or k · 10^n with k an integer
+            // (so that it prints as short as it reads).
+            let e = r.log10().floor() as i32 - 2;
+            let at = |k: f64| {
+                if e < 0 {
+                    k / 10f64.powi(-e)
+                } else {
+                    k * 10f64.powi(e)
+                }
+            };
+            let mut k = if e < 0 {
+                (r * 10f64.powi(-e)).ceil()
+            } else {
+                (r / 10f64.powi(e)).ceil()
+            };
+            while !fits(at(k)) && k < 1e4 {
+                k += 1.0;
+            }
+            let min_resolution = at(k);
+            let sat = |v: f64| {
+                if v >= usize::MAX as f64 {
+                    usize::MAX
+                } else {
+                    v as usize
+                }
+            };
+            let (width, height) = (sat(wf), sat(hf));
             return Err(MapError::TooLarge {
-                width: wf.min(usize::MAX as f64) as usize,
-                height: hf.min(usize::MAX as f64) as usize,
+                resolution,
+                width,
+                height,
+                cells: width as u128 * height as u128,
                 limit: MAX_GRID_CELLS,
+                min_resolution,
             });
         }
-        let mut grid = OccupancyGrid {
+        Ok(GridSize {
             origin,
             resolution,
             width: wf as usize,
             height: hf as usize,
-            cells: vec![Cell::Free; wf as usize * hf as usize],
+        })
+    }
+
+    /// [`World::occupancy_grid`], with an error for a bad resolution, an oversized grid, a
+    /// world without solids, or memory that cannot be allocated.
+    pub fn try_occupancy_grid(
+        &self,
+        resolution: f64,
+        include_glass: bool,
+    ) -> Result<OccupancyGrid, MapError> {
+        let size = self.grid_size(resolution)?;
+        let n = size.width * size.height;
+        let mut cells = Vec::new();
+        // Up to MAX_GRID_CELLS bytes: an allocation failure is an error, not an abort.
+        cells
+            .try_reserve_exact(n)
+            .map_err(|_| MapError::OutOfMemory { cells: n })?;
+        cells.resize(n, Cell::Free);
+        let mut grid = OccupancyGrid {
+            origin: size.origin,
+            resolution,
+            width: size.width,
+            height: size.height,
+            cells,
         };
 
         for w in &self.walls {
@@ -577,5 +667,98 @@ mod tests {
             "vector map line 1: not a finite number: \"NaN\""
         );
         assert!(err("1,2,3,4,5").starts_with("vector map line 1: expected 4 numbers"));
+    }
+
+    /// Walls around a square of `half` metres on each side of the origin.
+    fn square(half: f64) -> World {
+        let mut w = two_walls();
+        let c = [[-half, -half], [half, -half], [half, half], [-half, half]];
+        w.walls = (0..4)
+            .map(|k| Wall {
+                a: c[k],
+                b: c[(k + 1) % 4],
+                thickness: 0.2,
+                height: 3.0,
+                material: "concrete".into(),
+            })
+            .collect();
+        w
+    }
+
+    #[test]
+    fn grid_size_matches_the_grid_it_announces() {
+        let w = two_walls();
+        let size = w.grid_size(0.1).unwrap();
+        let g = w.occupancy_grid(0.1, true);
+        assert_eq!(
+            (size.width, size.height, size.origin),
+            (g.width, g.height, g.origin)
+        );
+        assert_eq!(size.cells(), g.cells.len() as u64);
+        assert_eq!(w.grid_size(0.0), Err(MapError::Resolution(0.0)));
+        let mut empty = w.clone();
+        empty.walls.clear();
+        assert_eq!(empty.grid_size(0.1), Err(MapError::Empty));
+    }
+
+    #[test]
+    fn too_large_world_says_how_large_not_empty() {
+        // A valid world 18 km across: at 5 cm its grid needs 1.3e11 cells.
+        let w = square(9000.0);
+        w.validate(std::path::Path::new("<big>")).unwrap();
+        let err = w.grid_size(0.05).unwrap_err();
+        let MapError::TooLarge {
+            width,
+            height,
+            cells,
+            limit,
+            min_resolution,
+            ..
+        } = err.clone()
+        else {
+            panic!("{err:?}");
+        };
+        // The walls span 18,000.2 m, 18,002.2 m with the 1 m margins: 360,044 cells of 5 cm.
+        assert_eq!((width, height), (360_044, 360_044));
+        assert_eq!(cells, 360_044u128 * 360_044);
+        assert_eq!(limit, MAX_GRID_CELLS);
+        let msg = err.to_string();
+        for part in [
+            "at 0.05 m would be 360044 x 360044 = 129631681936 cells",
+            "over the limit of 200000000 cells (MAX_GRID_CELLS)",
+            &format!("use a resolution of at least {min_resolution} m"),
+        ] {
+            assert!(msg.contains(part), "{part}: {msg}");
+        }
+        // The suggestion fits, and is the finest that does (to 3 significant digits).
+        assert!(w.grid_size(min_resolution).is_ok(), "{min_resolution}");
+        assert!(
+            w.grid_size(0.98 * min_resolution).is_err(),
+            "{min_resolution}"
+        );
+        assert!((1.2..1.35).contains(&min_resolution), "{min_resolution}");
+        // The checked builder says the same; the infallible one still degrades to empty.
+        assert_eq!(w.try_occupancy_grid(0.05, true), Err(err));
+        assert_eq!(w.occupancy_grid(0.05, true).cells.len(), 0);
+        // An unvalidated world with infinite coordinates says so.
+        let mut inf = w.clone();
+        inf.walls[0].a[0] = f64::INFINITY;
+        let e = inf.grid_size(1.0).unwrap_err();
+        assert!(matches!(e, MapError::NotFinite { .. }), "{e:?}");
+        assert!(e.to_string().contains("World::validate"), "{e}");
+        assert!(inf.occupancy_grid(1.0, true).cells.is_empty());
+        // Absurd resolutions saturate instead of overflowing.
+        let tiny = w.grid_size(1e-300).unwrap_err();
+        assert!(
+            matches!(
+                tiny,
+                MapError::TooLarge {
+                    width: usize::MAX,
+                    height: usize::MAX,
+                    ..
+                }
+            ),
+            "{tiny:?}"
+        );
     }
 }

@@ -118,6 +118,7 @@ impl AccessPoint {
                 format!("coordinates must be finite numbers, got [{x}, {y}, {z}]"),
             ));
         }
+        crate::loader::check_coordinates(&self.position).map_err(|msg| ("position", msg))?;
         if !(0.0..=ceiling).contains(&z) {
             return Err((
                 "position",
