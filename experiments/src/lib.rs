@@ -11,6 +11,7 @@ pub mod dataset;
 
 pub mod inspect;
 pub mod node_experiment;
+pub mod score;
 pub mod sweep;
 
 pub use sweep::end_error;

@@ -541,6 +541,19 @@ pub fn replay_recording(
         let names: Vec<&String> = options.localizers.iter().map(|(n, _)| n).collect();
         scenario.expect.retain(|k, _| names.iter().any(|n| *n == k));
     }
+    replay_scenario(rec, scenario, options.registry, options.progress, None)
+}
+
+/// Replays `rec` under `scenario` as given (its localizers and expectations), with the
+/// recording's seed and events. `on_tick`, when given, sees every instant before the
+/// localizers get its readings (`score` sets the clock of foreign estimates from it).
+pub fn replay_scenario(
+    rec: &Recording,
+    scenario: Scenario,
+    registry: Option<&LocalizerRegistry>,
+    progress: Option<&mut dyn FnMut(f64, f64)>,
+    on_tick: Option<&mut dyn FnMut(&Tick)>,
+) -> Result<Replayed, ScenarioError> {
     let seed = match rec.metadata.get("seed") {
         Some(s) => s
             .parse()
@@ -559,9 +572,12 @@ pub fn replay_recording(
         .get("base_link")
         .cloned()
         .unwrap_or_else(|| scenario.robot.base_link.clone());
-    let mut stream = ReplayStream::new(rec, base_link)?;
+    let mut stream = Watched {
+        inner: ReplayStream::new(rec, base_link)?,
+        on_tick,
+    };
     let builtins;
-    let registry = match options.registry {
+    let registry = match registry {
         Some(r) => r,
         None => {
             builtins = LocalizerRegistry::with_builtins();
@@ -575,7 +591,7 @@ pub fn replay_recording(
         &events,
         RunOptions {
             seed: Some(seed),
-            progress: options.progress,
+            progress,
             observer: None,
         },
     )?;
@@ -584,6 +600,28 @@ pub fn replay_recording(
         topics: rec.topics(),
         scenario,
     })
+}
+
+/// A replay stream whose instants are also shown to a callback.
+struct Watched<'a, 'f> {
+    inner: ReplayStream<'a>,
+    on_tick: Option<&'f mut dyn FnMut(&Tick)>,
+}
+
+impl ReadingStream for Watched<'_, '_> {
+    fn next(&mut self, readings: &mut Vec<Reading>) -> Result<Option<Tick>, ScenarioError> {
+        let tick = self.inner.next(readings)?;
+        if let (Some(t), Some(f)) = (&tick, self.on_tick.as_mut()) {
+            f(t);
+        }
+        Ok(tick)
+    }
+    fn summary(&self) -> StreamSummary {
+        self.inner.summary()
+    }
+    fn verify_node(&mut self, node: usize, pose: Pose2) {
+        self.inner.verify_node(node, pose);
+    }
 }
 
 #[cfg(test)]
