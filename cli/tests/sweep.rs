@@ -9,7 +9,7 @@ use std::process::Output;
 
 /// A 2-cell × 2-trial sweep over a 2-second corridor scenario, written into `dir`.
 fn tiny_sweep(dir: &Path, axes: &str) -> String {
-    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("corridor_tracking.toml");
+    let base = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
     let text = format!(
         "base = {:?}\nseed = 3\ntrials = 2\n[axes]\n{axes}\n",
         base.to_str().unwrap()

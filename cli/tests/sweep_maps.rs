@@ -217,7 +217,7 @@ fn error_maps_agree_across_shards_and_resume_and_show_figure_2() {
 fn bad_error_map_and_bench_input_exit_2() {
     let d = tmpdir("errmap-bad");
     let f = d.join("bad.toml");
-    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("corridor_tracking.toml");
+    let base = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
     std::fs::write(
         &f,
         format!(

@@ -15,12 +15,11 @@ mod common;
 
 use atrium_experiments::end_error;
 use atrium_experiments::sweep::{csv::read_results, run_sweep, Sweep, SweepSettings};
-use std::path::Path;
 
 /// The clutter is furniture of this run only: solid for the simulator, on no map.
 #[test]
 fn open_area_clutter_furnishes_the_run_and_no_map() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = atrium_scenarios::bundled_scenarios_dir();
     let s = atrium_scenarios::Scenario::load(&root.join("open_area.toml")).unwrap();
     let campus = atrium_worlds::World::load(&root.join("../worlds/campus.toml")).unwrap();
     assert_eq!(s.world.boxes.len(), campus.boxes.len() + 14);
@@ -39,7 +38,7 @@ fn open_area_clutter_furnishes_the_run_and_no_map() {
 #[test]
 fn open_area_end_errors_have_the_papers_shape() {
     let dir = common::tmpdir("open-area");
-    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("open_area.toml");
+    let base = atrium_scenarios::bundled_scenarios_dir().join("open_area.toml");
     let file = dir.join("open_area_reduced.toml");
     let text = format!(
         "base = {:?}\nseed = 3\ntrials = 6\n",

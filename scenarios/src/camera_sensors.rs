@@ -1,7 +1,7 @@
 //! Cameras of a scenario: `[sensors.<name>]` tables with `kind = "camera"` (an intensity
 //! camera), `kind = "stereo"` (a stereo rig: its left image and its disparity map),
-//! `kind = "ceiling"` (an upward camera, seeds/001) or `kind = "omni"` (a panoramic camera,
-//! seeds/001), and the top-level `lighting = "tube" | "bulb" | "natural"` they see (default
+//! `kind = "ceiling"` (an upward camera, [001]) or `kind = "omni"` (a panoramic camera,
+//! [001]), and the top-level `lighting = "tube" | "bulb" | "natural"` they see (default
 //! `tube`). A `[sensors.<name>]` table without `kind` is a laser; any other kind is an error.
 //!
 //! ```toml

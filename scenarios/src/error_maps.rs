@@ -1,4 +1,4 @@
-//! Filling per-location error maps ([`ErrorMap`], seeds/004_5bf198ec52fcbc0c.txt §3 Figure 2)
+//! Filling per-location error maps ([`ErrorMap`], [004] §3 Figure 2)
 //! from finished runs: every scored instant adds each localizer's position error to the cell
 //! of the robot's true position.
 

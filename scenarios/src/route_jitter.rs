@@ -1,6 +1,6 @@
 //! Seeded waypoint jitter (`[route] jitter = 2.0`, metres): every trial of a sweep drives its
 //! own variant of the route, as the manually driven trials of the open-area experiment did
-//! (004_5bf198ec52fcbc0c.txt §3: "the robot started out from the same fixed location, and
+//! ([004] §3: "the robot started out from the same fixed location, and
 //! was manually driven around the open area ... then driven back to the starting location").
 //!
 //! Each waypoint except the last is moved by an offset drawn uniformly from the disc of

@@ -1,5 +1,5 @@
 //! What a run reports for an EKF-SLAM localizer (`kind = "ekf_slam"`): the map against the
-//! world's pillars, the covariance monitor's verdict (seeds/003_050d61ffc79b029e.txt §2.2,
+//! world's pillars, the covariance monitor's verdict ([003] §2.2,
 //! eq. 12–13), its min / mean / max inter-cluster history, the filter's input problems, and
 //! the snapshots the pictures are drawn from; plus the `[expect.<localizer>.slam]` checks.
 //!

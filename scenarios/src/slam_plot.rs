@@ -1,5 +1,5 @@
 //! Pictures of an EKF-SLAM run in the three modes of Kozlov, MacDonald and Wünsche
-//! (seeds/003_050d61ffc79b029e.txt §3.2 and §4, Fig. 3–8): the ground-truth and estimated
+//! ([003] §3.2 and §4, Fig. 3–8): the ground-truth and estimated
 //! robot paths, the pillars and the estimated features, and a correlation ellipse of the
 //! relative covariance P_d (eq. 13) at the midpoint of each feature pair —
 //!

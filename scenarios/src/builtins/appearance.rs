@@ -1,4 +1,4 @@
-//! `kind = "appearance"`: the auxiliary particle filter of seeds/000 §VI
+//! `kind = "appearance"`: the auxiliary particle filter of [000] §VI
 //! (`atrium_localization::appearance_apf`) on an appearance map trained from the scenario's
 //! own world and camera, rendered at a grid of training poses under the training light.
 //!

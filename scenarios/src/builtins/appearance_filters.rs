@@ -1,7 +1,7 @@
 //! Training the appearance localizers of issue 5 from a world rendered with the simulator's
-//! cameras: the appearance map of the auxiliary particle filter (seeds/000 §VII: a grid of
+//! cameras: the appearance map of the auxiliary particle filter ([000] §VII: a grid of
 //! training poses with rotations, stereo left images and sparse disparity maps), the omnicam
-//! eigenimage map and the ceiling-brightness map (seeds/001).
+//! eigenimage map and the ceiling-brightness map ([001]).
 //!
 //! The robot is placed at the training poses directly (the papers drove it there); nothing
 //! here depends on the physics. Poses render in parallel chunks, each pose with its own noise

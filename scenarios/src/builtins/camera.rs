@@ -1,4 +1,4 @@
-//! The localizers of seeds/001_c53d039653973f41.txt on maps trained from the scenario's own
+//! The localizers of [001] on maps trained from the scenario's own
 //! world and camera: `kind = "ceiling_mcl"` (ceiling-brightness MCL,
 //! `atrium_localization::ceiling_mcl`) and `kind = "omni"` (MCL on the omnicam eigenimage
 //! map, `atrium_localization::omni_mcl`). Like `kind = "appearance"`

@@ -1,5 +1,5 @@
 //! Building the sensor choosers (`kind = "chooser"`) and the fused localizer
-//! (`kind = "fused"`) of `atrium_localization::chooser` (004_5bf198ec52fcbc0c.txt §4) from a
+//! (`kind = "fused"`) of `atrium_localization::chooser` ([004] §4) from a
 //! scenario's `[[localizers]]` table.
 //!
 //! ```toml

@@ -2,7 +2,7 @@
 //!
 //! - `training = "wifi_survey.toml"`: a logging scenario, run first. Its robot drives its
 //!   route (not from chosen spots) and every WiFi scan is logged with the ground-truth pose
-//!   of that instant (004_5bf198ec52fcbc0c.txt §2.3: "examples are first collected across the
+//!   of that instant ([004] §2.3: "examples are first collected across the
 //!   map while driving the robot around"); the graph is then learnt from those pairs. The
 //!   survey is deterministic (its own seed, its own scan-noise stream; the shadow field is the
 //!   world's), so the graph is a pure function of the survey file, its world and robot, and
