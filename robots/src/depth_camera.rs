@@ -3,7 +3,7 @@
 //! `[depth_cameras.<name>]` (see `scenarios/src/scenario.rs`); the simulator casts one 3D ray
 //! per pixel (`sim/src/depth.rs`) and produces a [`crate::DepthImage`].
 //!
-//! Source: 004_5bf198ec52fcbc0c.txt §2.2 (depth image of size w × h with fields of view
+//! Source: [004] §2.2 (depth image of size w × h with fields of view
 //! f_h, f_v); the noise model σ(z) = 0.0012 + 0.0019 (z − 0.4)² m is the Kinect's measured
 //! axial noise (Nguyen, Izadi & Lovell, 3DIMPVT 2012), as the project's ARCHITECTURE.md asks.
 

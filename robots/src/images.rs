@@ -1,5 +1,5 @@
 //! Camera images: grey intensity images and disparity maps with missing values
-//! (seeds/000 §III), carried in the reading stream as [`crate::Reading::Intensity`] and
+//! ([000] §III), carried in the reading stream as [`crate::Reading::Intensity`] and
 //! [`crate::Reading::Disparity`] (rendered by `atrium_sim::camera` and `atrium_sim::stereo`).
 
 use crate::readings::Mount3;

@@ -1,5 +1,5 @@
 //! The range-bearing point-feature detector that feeds EKF-SLAM (Kozlov, MacDonald, Wünsche,
-//! "Covariance Visualisations for SLAM", seeds/003_050d61ffc79b029e.txt §2.1, observation
+//! "Covariance Visualisations for SLAM", [003] §2.1, observation
 //! model eq. 5: z = h(x) + w with w Gaussian). What it detects (pillar centres) is decided by
 //! the simulator; this is only the sensor's description.
 

@@ -1,4 +1,4 @@
-//! The multi-node odometry model of Theodoridis et al., /work/shared/seeds/002_4f056f43b5d8a234.txt
+//! The multi-node odometry model of Theodoridis et al., [002]
 //! Table I and §III-C: a route is a list of nodes ⟨x_n, y_n⟩; the robot turns to the next node
 //! (turnTo, angular threshold γ_θ), moves to it (moveTo, distance threshold γ_d), and on
 //! arrival its odometry coordinates are set to the node's (update).

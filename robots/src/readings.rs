@@ -121,10 +121,10 @@ pub enum Reading {
     Depth(DepthImage),
     Wifi(WifiScan),
     Landmarks(LandmarkDetections),
-    /// A grey image from a camera (seeds/000 §III; also the omnidirectional and ceiling
-    /// cameras of seeds/001).
+    /// A grey image from a camera ([000] §III; also the omnidirectional and ceiling
+    /// cameras of [001]).
     Intensity(crate::images::IntensityImage),
-    /// A stereo disparity map with missing values (seeds/000 §III).
+    /// A stereo disparity map with missing values ([000] §III).
     Disparity(crate::images::DisparityImage),
 }
 

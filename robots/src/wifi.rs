@@ -1,6 +1,6 @@
 //! The WiFi receiver: how often it scans and how it errs. Defaults follow ARCHITECTURE.md's
 //! sensor table (scan noise 2 dB, cut-off −90 dBm, one scan every 1–2 s); the source is
-//! 004_5bf198ec52fcbc0c.txt §2.3, whose robot scanned while driving.
+//! [004] §2.3, whose robot scanned while driving.
 //!
 //! In a sensor file or a scenario:
 //! ```toml

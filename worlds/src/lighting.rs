@@ -1,5 +1,5 @@
-//! What cameras see: light sources and the look of each surface (seeds/000 §VII: tube
-//! lights, bulbs, daylight through windows; seeds/000 §III: textureless areas give no
+//! What cameras see: light sources and the look of each surface ([000] §VII: tube
+//! lights, bulbs, daylight through windows; [000] §III: textureless areas give no
 //! disparity).
 //!
 //! ```toml

@@ -1,5 +1,5 @@
 //! WiFi in a world: access points and the radio environment (shadow fading) the RSSI model of
-//! `sim` draws from. Source: 004_5bf198ec52fcbc0c.txt §2.3 (WiFi localization needs RSSI
+//! `sim` draws from. Source: [004] §2.3 (WiFi localization needs RSSI
 //! that varies with place); the propagation model itself (log-distance path loss, wall
 //! attenuation by material, log-normal shadowing) is the standard indoor model, see
 //! `sim/src/wifi.rs`.
