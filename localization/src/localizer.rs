@@ -79,6 +79,13 @@ pub trait Capabilities {
     fn reset_to(&mut self, _pose: Pose2, _sigma: [f64; 3]) -> bool {
         false
     }
+    /// Text the localizer wants kept with the run (a process localizer's stderr), taken once
+    /// when the run has ended: the runner stores it in its `LocalizerRun` and `--out` writes
+    /// it to `log_<localizer>.txt`. A localizer may finish its work first (a process
+    /// localizer says goodbye to its process and waits for it to exit).
+    fn log(&mut self) -> Option<String> {
+        None
+    }
 }
 
 /// The observation fit of `l`, if it measures one.

@@ -27,8 +27,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// Writes a run's files into `dir`: TUM trajectories (`ground_truth.tum`, `<localizer>.tum`),
 /// `metrics.json` (the `--json` document) and a picture per localizer
 /// (`trajectory_<localizer>.svg` / `.png`), plus, for EKF-SLAM localizers, the covariance
-/// pictures of `slam_plot` (`slam_<localizer>_<mode>_<frame>.svg` / `.png`). Returns the paths
-/// written.
+/// pictures of `slam_plot` (`slam_<localizer>_<mode>_<frame>.svg` / `.png`), and the text a
+/// localizer kept with the run (`log_<localizer>.txt`: a process localizer's stderr). Returns
+/// the paths written.
 pub fn write_run(
     dir: &Path,
     world: &atrium_worlds::World,
@@ -60,6 +61,9 @@ pub fn write_run(
             format!("trajectory_{}.png", l.name),
             crate::plot::png(world, run, l)?,
         )?;
+        if let Some(log) = &l.log {
+            put(format!("log_{}.txt", l.name), log.clone().into_bytes())?;
+        }
         if let Some(slam) = &l.slam {
             for (name, bytes) in crate::slam_plot::pictures(world, run, l, slam)? {
                 put(name, bytes)?;

@@ -47,6 +47,10 @@ pub struct LocalizerRun {
     /// What a landmark filter did at each node of a node route (empty otherwise).
     #[serde(skip)]
     pub node_events: Vec<atrium_localization::landmark_filter::NodeEvent>,
+    /// Text the localizer kept with the run (a process localizer's stderr; see
+    /// `Capabilities::log`); `--out` writes it to `log_<localizer>.txt`.
+    #[serde(skip)]
+    pub log: Option<String>,
 }
 
 /// Wall-clock figures, kept apart from the results because they vary between runs.
@@ -422,6 +426,7 @@ pub fn run_localizers(
             cpu_s: cpu[i],
             slam: crate::slam::SlamRun::of(localizers[i].as_mut(), scenario),
             node_events: crate::node_route::node_events(localizers[i].as_mut()),
+            log: localizers[i].capabilities().and_then(|c| c.log()),
         });
     }
     for i in 0..runs.len() {
