@@ -329,7 +329,12 @@ impl Sweep {
                 .entry("localizers")
                 .or_insert_with(|| toml::Value::Array(Vec::new()));
             if let toml::Value::Array(a) = list {
-                a.extend(self.extra_localizers.iter().cloned().map(toml::Value::Table));
+                a.extend(
+                    self.extra_localizers
+                        .iter()
+                        .cloned()
+                        .map(toml::Value::Table),
+                );
             }
         }
         if !self.extra_expect.is_empty() {
