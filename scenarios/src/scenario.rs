@@ -359,6 +359,32 @@ fn clutter_within(world: &World, n: usize, p: [f64; 2], margin: f64) -> Option<u
         .position(|b| b.signed_distance(p) < margin)
 }
 
+/// The longest simulated run a scenario may ask for (a day): longer runs are typos or
+/// hostile input, and a run's samples grow with its length.
+pub const MAX_DURATION_S: f64 = 86_400.0;
+
+/// A localizer name names files (`<name>.tum`, `log_<name>.txt`) and dotted sweep paths
+/// (`localizers.<name>.key`): letters, digits, '_' and '-', starting with a letter or digit,
+/// at most 64 characters, so it can never climb out of an output folder.
+pub fn check_localizer_name(name: &str) -> Result<(), String> {
+    let ok = (1..=64).contains(&name.len())
+        && name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphanumeric())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name:?} is not a valid localizer name: use 1 to 64 letters, digits, '_' and '-', \
+             starting with a letter or digit (it names output files)"
+        ))
+    }
+}
+
 impl Scenario {
     /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
     /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
@@ -372,11 +398,13 @@ impl Scenario {
         expect: toml::Table,
     ) -> Result<&mut Self, ScenarioError> {
         let field = format!("localizers[{name}]");
-        if name.is_empty() || self.localizers.iter().any(|l| l.name == name) {
+        check_localizer_name(name)
+            .map_err(|msg| ScenarioError::field(&self.file, format!("{field}.name"), msg))?;
+        if self.localizers.iter().any(|l| l.name == name) {
             return Err(ScenarioError::field(
                 &self.file,
                 format!("{field}.name"),
-                format!("{name:?} is empty or names a localizer of this scenario already"),
+                format!("{name:?} names a localizer of this scenario already"),
             ));
         }
         for k in ["name", "kind"] {
@@ -422,6 +450,16 @@ impl Scenario {
         let robot = RobotModel::from_urdf(&robot_file)?;
 
         check_positive(file, "duration_s", raw.duration_s)?;
+        if raw.duration_s > MAX_DURATION_S {
+            return Err(ScenarioError::field(
+                file,
+                "duration_s",
+                format!(
+                    "{} s is longer than the limit of {MAX_DURATION_S} s (a day of simulated time)",
+                    raw.duration_s
+                ),
+            ));
+        }
         check_positive(file, "eval_hz", raw.eval_hz)?;
         if !(raw.physics_hz.is_finite() && (50.0..=5000.0).contains(&raw.physics_hz)) {
             return Err(ScenarioError::field(
@@ -774,6 +812,8 @@ impl Scenario {
                     ))
                 }
             };
+            check_localizer_name(&name)
+                .map_err(|msg| ScenarioError::field(file, format!("localizers[{i}].name"), msg))?;
             let kind = match params.remove("kind") {
                 Some(toml::Value::String(s)) => s,
                 _ => {

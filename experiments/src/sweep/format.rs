@@ -86,6 +86,12 @@ struct ErrorMapFile {
     resolution: f64,
 }
 
+/// The most cells one sweep may have: each is validated (its localizers built) before any
+/// trial runs, so a larger sweep would validate for minutes.
+pub const MAX_CELLS: usize = 10_000;
+/// The most trials one sweep may run (its `results.csv` holds a row per trial and localizer).
+pub const MAX_TRIALS: usize = 1_000_000;
+
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SweepFile {
@@ -250,6 +256,7 @@ impl Sweep {
         })?;
         let mut axes = Vec::new();
         flatten_axes(file, "", &raw.axes, &mut axes)?;
+        Self::check_size(file, &axes, raw.trials)?;
         let name = file
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -291,6 +298,30 @@ impl Sweep {
     /// Number of cells (the product of the axis lengths; 1 with no axes).
     pub fn cells(&self) -> usize {
         self.axes.iter().map(|a| a.values.len()).product()
+    }
+
+    /// The cell and trial counts, refused (before anything is validated or run) when they
+    /// overflow or pass [`MAX_CELLS`] / [`MAX_TRIALS`].
+    fn check_size(file: &Path, axes: &[Axis], trials: usize) -> Result<(), ScenarioError> {
+        let cells = axes
+            .iter()
+            .try_fold(1usize, |n, a| n.checked_mul(a.values.len()));
+        let total = cells.and_then(|c| c.checked_mul(trials));
+        match (cells, total) {
+            (Some(c), Some(t)) if c <= MAX_CELLS && t <= MAX_TRIALS => Ok(()),
+            _ => {
+                let lens: Vec<String> = axes.iter().map(|a| a.values.len().to_string()).collect();
+                Err(ScenarioError::field(
+                    file,
+                    "axes",
+                    format!(
+                        "{} cells × {trials} trials is more than the limits of {MAX_CELLS} cells \
+                         and {MAX_TRIALS} trials per sweep (split it into several sweeps or shards)",
+                        if lens.is_empty() { "1".to_string() } else { lens.join(" × ") },
+                    ),
+                ))
+            }
+        }
     }
 
     /// Total number of trials.

@@ -32,6 +32,10 @@ pub struct SweepSettings {
     pub progress: bool,
 }
 
+/// The most worker threads `--jobs` may ask for: trials are CPU-bound, so more threads than
+/// cores only cost memory (each holds a simulation).
+pub const MAX_JOBS: usize = 1024;
+
 /// What a sweep run did.
 #[derive(Debug, Clone)]
 pub struct SweepOutcome {
@@ -190,6 +194,15 @@ pub fn canonical(mut rows: Vec<Row>) -> Vec<Row> {
 /// batch one write + fsync, then sorted once the shard is complete) and `summary.md`.
 pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome, ScenarioError> {
     let started = Instant::now();
+    if let Some(n) = settings.jobs {
+        if !(1..=MAX_JOBS).contains(&n) {
+            return Err(ScenarioError::field(
+                &sweep.file,
+                "--jobs",
+                format!("must be between 1 and {MAX_JOBS} worker threads, got {n}"),
+            ));
+        }
+    }
     let out = &settings.out;
     let io = |file: &Path| {
         let file = file.to_path_buf();
@@ -337,7 +350,7 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     };
     match settings.jobs {
         Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n)
             .build()
             .map_err(|e| ScenarioError::field(&sweep.file, "--jobs", e.to_string()))?
             .install(work)?,

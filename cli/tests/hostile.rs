@@ -1,0 +1,53 @@
+//! The hostile-input corpus (`tests/hostile/cases.toml`): every case is bad input that must
+//! end in exit status 2 with a message naming the problem, never a panic, and must leave its
+//! output folder unwritten.
+
+mod common;
+
+use common::{atrium, tmpdir};
+use std::path::Path;
+
+#[test]
+fn hostile_inputs_exit_2_with_a_clear_message_and_write_nothing() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hostile");
+    let cases: toml::Table =
+        toml::from_str(&std::fs::read_to_string(dir.join("cases.toml")).unwrap()).unwrap();
+    let cases = cases["case"].as_array().unwrap();
+    assert!(cases.len() >= 10, "the corpus lost cases");
+    let work = tmpdir("hostile");
+    let mut failures = Vec::new();
+    for (i, case) in cases.iter().enumerate() {
+        let out = work.join(format!("out{i}"));
+        let args: Vec<String> = case["args"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| {
+                a.as_str()
+                    .unwrap()
+                    .replace("{dir}", &dir.to_string_lossy())
+                    .replace("{out}", &out.to_string_lossy())
+            })
+            .collect();
+        let expect = case["expect"].as_str().unwrap();
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = atrium(&refs);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let problems = [
+            (o.status.code() != Some(2)).then(|| format!("exit {:?}", o.status.code())),
+            stderr.contains("panicked").then(|| "panicked".to_string()),
+            (!stderr.contains(expect)).then(|| format!("no {expect:?}")),
+            out.exists().then(|| "wrote its output folder".to_string()),
+        ];
+        let problems: Vec<String> = problems.into_iter().flatten().collect();
+        if !problems.is_empty() {
+            failures.push(format!(
+                "{args:?}: {}\n  stderr: {stderr}",
+                problems.join(", ")
+            ));
+        }
+    }
+    // A localizer name must never have written outside the output folder.
+    assert!(!work.join("escaped.tum").exists() && !dir.join("escaped.tum").exists());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
