@@ -385,6 +385,29 @@ pub fn check_localizer_name(name: &str) -> Result<(), String> {
     }
 }
 
+/// The fastest a scenario's robot may be told to drive, m/s: faster than any indoor robot,
+/// and at 200 Hz physics already 5 cm per step (faster and the ground truth teleports).
+pub const MAX_SPEED_M_S: f64 = 10.0;
+/// The most a scenario may turn, rad/s.
+pub const MAX_TURN_RATE: f64 = 4.0 * std::f64::consts::PI;
+
+/// `p` lies within the world's extent (its walls' and pillars' bounding box): a start,
+/// waypoint, node or kidnap target outside the building is refused rather than driven to.
+fn check_inside(file: &Path, field: &str, world: &World, p: [f64; 2]) -> Result<(), ScenarioError> {
+    let (lo, hi) = world.bounds();
+    if (lo[0]..=hi[0]).contains(&p[0]) && (lo[1]..=hi[1]).contains(&p[1]) {
+        return Ok(());
+    }
+    Err(ScenarioError::field(
+        file,
+        field,
+        format!(
+            "({}, {}) lies outside world {:?}, which spans x {}..{} m, y {}..{} m",
+            p[0], p[1], world.name, lo[0], hi[0], lo[1], hi[1]
+        ),
+    ))
+}
+
 impl Scenario {
     /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
     /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
@@ -469,6 +492,12 @@ impl Scenario {
             ));
         }
         check_finite(file, "start.pose", &raw.start.pose)?;
+        check_inside(
+            file,
+            "start.pose",
+            &world,
+            [raw.start.pose[0], raw.start.pose[1]],
+        )?;
         let start = Pose2::new(raw.start.pose[0], raw.start.pose[1], raw.start.pose[2]);
         let node_route = crate::node_route::parse_route(
             file,
@@ -506,6 +535,7 @@ impl Scenario {
         for (i, w) in raw.route.waypoints.iter().enumerate() {
             let field = format!("route.waypoints[{i}]");
             check_finite(file, &field, w)?;
+            check_inside(file, &field, &world, *w)?;
             if !world.is_free(*w, 0.0) {
                 return Err(ScenarioError::field(
                     file,
@@ -552,6 +582,21 @@ impl Scenario {
         controller
             .validate()
             .map_err(|e| ScenarioError::field(file, "controller", e.to_string()))?;
+        for (key, v, limit) in [
+            ("max_speed", controller.max_speed, MAX_SPEED_M_S),
+            ("max_turn_rate", controller.max_turn_rate, MAX_TURN_RATE),
+        ] {
+            if v > limit {
+                return Err(ScenarioError::field(
+                    file,
+                    format!("controller.{key}"),
+                    format!(
+                        "{v} is above the limit of {limit} (MAX_{})",
+                        key.to_uppercase()
+                    ),
+                ));
+            }
+        }
 
         // Sensors: the robot's sensor file, overridden by the scenario.
         let sensor_file = RobotSensors::path_beside(&robot_file);
@@ -706,6 +751,19 @@ impl Scenario {
                         format!("must be finite and >= 0, got {sigma:?}"),
                     ));
                 }
+                // Wider than the building is not tracking: use mode = "global".
+                let (lo, hi) = world.bounds();
+                let extent = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+                if sigma[0].max(sigma[1]) > extent || sigma[2] > std::f64::consts::TAU {
+                    return Err(ScenarioError::field(
+                        file,
+                        "initial_belief.sigma",
+                        format!(
+                            "{sigma:?} is wider than the world ({extent:.1} m across) or a full \
+                             turn: for an unknown start use mode = \"global\""
+                        ),
+                    ));
+                }
                 InitialBelief::Tracking { sigma }
             }
             Some(BeliefFile::Global {
@@ -753,6 +811,7 @@ impl Scenario {
             match e {
                 EventFile::Kidnap { at_s, to } => {
                     check_finite(file, &format!("events[{i}].to"), to)?;
+                    check_inside(file, &format!("events[{i}].to"), &world, [to[0], to[1]])?;
                     if !(at_s.is_finite() && *at_s >= 0.0 && *at_s < raw.duration_s) {
                         return Err(ScenarioError::field(
                             file,
