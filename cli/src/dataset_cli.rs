@@ -29,6 +29,11 @@ pub fn record_command(
     json: bool,
 ) -> anyhow::Result<bool> {
     let scenario = Scenario::load(scenario_path)?;
+    atrium_scenarios::output::refuse_overwriting_inputs(
+        output,
+        &[scenario_path, &scenario.world_file, &scenario.robot_file],
+    )
+    .map_err(anyhow::Error::msg)?;
     let bar = progress_bar(!json && std::io::stderr().is_terminal(), &scenario.name);
     let mut progress = |t: f64, total: f64| {
         if let Some(b) = &bar {

@@ -388,6 +388,11 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
                 },
         }) => {
             let w = atrium_worlds::World::load(&world)?;
+            output::refuse_overwriting_inputs(&output, &[&world])
+                .and_then(|()| {
+                    output::refuse_overwriting_inputs(&output.with_extension("pgm"), &[&world])
+                })
+                .map_err(anyhow::Error::msg)?;
             let written = output::export_map(&w, &format, &output, include_glass, resolution)
                 .map_err(anyhow::Error::msg)?;
             for p in written {

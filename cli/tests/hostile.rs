@@ -14,6 +14,16 @@ fn hostile_inputs_exit_2_with_a_clear_message_and_write_nothing() {
         toml::from_str(&std::fs::read_to_string(dir.join("cases.toml")).unwrap()).unwrap();
     let cases = cases["case"].as_array().unwrap();
     assert!(cases.len() >= 10, "the corpus lost cases");
+    let snapshot = || {
+        let mut files: Vec<(std::path::PathBuf, Vec<u8>)> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| (p.clone(), std::fs::read(&p).unwrap()))
+            .collect();
+        files.sort();
+        files
+    };
+    let before = snapshot();
     let work = tmpdir("hostile");
     let mut failures = Vec::new();
     for (i, case) in cases.iter().enumerate() {
@@ -47,6 +57,8 @@ fn hostile_inputs_exit_2_with_a_clear_message_and_write_nothing() {
             ));
         }
     }
+    // No command overwrote its input (`record -o` and `export -o` naming it).
+    assert!(before == snapshot(), "a case changed the corpus");
     // A localizer name must never have written outside the output folder.
     assert!(!work.join("escaped.tum").exists() && !dir.join("escaped.tum").exists());
     assert!(failures.is_empty(), "{}", failures.join("\n"));

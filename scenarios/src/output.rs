@@ -87,6 +87,11 @@ pub fn export_map(
 ) -> Result<Vec<std::path::PathBuf>, String> {
     let fail = |e: std::io::Error| format!("{}: {e}", output.display());
     match format {
+        "ros" if output.extension().is_some_and(|e| e == "pgm") => Err(format!(
+            "-o {}: names the image; give the YAML path (e.g. map.yaml): the image is \
+             written beside it with the extension .pgm",
+            output.display()
+        )),
         "ros" => {
             let grid = world
                 .try_occupancy_grid(resolution, include_glass)
@@ -107,6 +112,24 @@ pub fn export_map(
         }
         other => Err(format!("--format: unknown format {other:?} (ros, vector)")),
     }
+}
+
+/// Refuses to write `output` when it is one of `inputs` (`atrium record -o scenario.toml`
+/// would destroy the scenario): compared after resolving links and `..`.
+pub fn refuse_overwriting_inputs(output: &Path, inputs: &[&Path]) -> Result<(), String> {
+    let Ok(out) = output.canonicalize() else {
+        return Ok(()); // does not exist yet: it is no input
+    };
+    for input in inputs {
+        if input.canonicalize().is_ok_and(|i| i == out) {
+            return Err(format!(
+                "-o {}: is the input file {}; choose another output",
+                output.display(),
+                input.display()
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
