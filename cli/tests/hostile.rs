@@ -1,4 +1,4 @@
-//! The hostile-input corpus (`tests/hostile/cases.toml`): every case is bad input that must
+//! The hostile-input corpus (`tests/hostile/cases*.toml`): every case is bad input that must
 //! end in exit status 2 with a message naming the problem, never a panic, and must leave its
 //! output folder unwritten.
 
@@ -10,9 +10,22 @@ use std::path::Path;
 #[test]
 fn hostile_inputs_exit_2_with_a_clear_message_and_write_nothing() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hostile");
-    let cases: toml::Table =
-        toml::from_str(&std::fs::read_to_string(dir.join("cases.toml")).unwrap()).unwrap();
-    let cases = cases["case"].as_array().unwrap();
+    // Every `cases*.toml` in the folder: one file per area keeps additions from colliding.
+    let mut case_files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            name.starts_with("cases") && name.ends_with(".toml")
+        })
+        .collect();
+    case_files.sort();
+    let mut cases = Vec::new();
+    for file in &case_files {
+        let table: toml::Table = toml::from_str(&std::fs::read_to_string(file).unwrap())
+            .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        cases.extend(table["case"].as_array().unwrap().iter().cloned());
+    }
     assert!(cases.len() >= 10, "the corpus lost cases");
     let snapshot = || {
         let mut files: Vec<(std::path::PathBuf, Vec<u8>)> = std::fs::read_dir(&dir)
