@@ -2,6 +2,7 @@
 //! loads or it is an error), and whatever loads is usable (finite, positive, within limits).
 //! Inputs that once failed are kept below as explicit regression tests.
 
+use atrium_fuzz::{apply, config, mutation, xml_number_spans, Mutation};
 use atrium_robots::urdf_limits::{MAX_LENGTH_M, MAX_MASS_KG, MIN_WHEEL_SEPARATION_M};
 use atrium_robots::{RobotModel, Shape};
 use proptest::prelude::*;
@@ -79,31 +80,6 @@ const NUMBERS: &[&str] = &[
     "1 2 3 4",
 ];
 
-/// Byte ranges of the whitespace-separated numbers inside attribute values of `BASE`.
-fn number_spans(text: &str) -> Vec<(usize, usize)> {
-    let b = text.as_bytes();
-    let mut spans = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let starts_number = (b[i].is_ascii_digit() || b[i] == b'-')
-            && i > 0
-            && (b[i - 1] == b'"' || b[i - 1] == b' ');
-        if starts_number {
-            let mut j = i;
-            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"-.+".contains(&b[j])) {
-                j += 1;
-            }
-            if j < b.len() && (b[j] == b'"' || b[j] == b' ') {
-                spans.push((i, j));
-            }
-            i = j.max(i + 1);
-        } else {
-            i += 1;
-        }
-    }
-    spans
-}
-
 /// What a loaded model must satisfy however hostile the text was.
 fn check_usable(m: &RobotModel) {
     let finite3 = |v: &nalgebra::Vector3<f64>| v.iter().all(|x| x.is_finite());
@@ -154,80 +130,8 @@ fn load(text: &str) {
     let _ = RobotModel::inspect_urdf_str(text, "fuzz.urdf");
 }
 
-#[derive(Debug, Clone)]
-enum Mutation {
-    Delete(Index, usize),
-    Insert(Index, &'static str),
-    Duplicate(Index, usize),
-    Number(Index, &'static str),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        (any::<Index>(), 1usize..40).prop_map(|(i, n)| Mutation::Delete(i, n)),
-        (any::<Index>(), select(TOKENS)).prop_map(|(i, t)| Mutation::Insert(i, t)),
-        (any::<Index>(), 1usize..200).prop_map(|(i, n)| Mutation::Duplicate(i, n)),
-        (any::<Index>(), select(NUMBERS)).prop_map(|(i, v)| Mutation::Number(i, v)),
-        (
-            any::<Index>(),
-            any::<f64>().prop_map(|v| &*Box::leak(v.to_string().into_boxed_str()))
-        )
-            .prop_map(|(i, v)| Mutation::Number(i, v)),
-    ]
-}
-
-/// The previous char boundary at or before `at`.
-fn floor_boundary(s: &str, mut at: usize) -> usize {
-    at = at.min(s.len());
-    while !s.is_char_boundary(at) {
-        at -= 1;
-    }
-    at
-}
-
-fn apply(text: &str, mutations: &[Mutation]) -> String {
-    let mut s = text.to_string();
-    for m in mutations {
-        let at = |i: &Index, s: &str| floor_boundary(s, i.index(s.len() + 1));
-        match m {
-            Mutation::Delete(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                s.replace_range(a..b, "");
-            }
-            Mutation::Insert(i, t) => {
-                let a = at(i, &s);
-                s.insert_str(a, t);
-            }
-            Mutation::Duplicate(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                let piece = s[a..b].to_string();
-                s.insert_str(b, &piece);
-            }
-            Mutation::Number(i, v) => {
-                let spans = number_spans(&s);
-                if !spans.is_empty() {
-                    let (a, b) = spans[i.index(spans.len())];
-                    s.replace_range(a..b, v);
-                }
-            }
-        }
-    }
-    s
-}
-
-fn config() -> ProptestConfig {
-    ProptestConfig {
-        cases: 256,
-        // Failures are kept as explicit tests below, not in a regressions file.
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    }
-}
-
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(config(256))]
 
     #[test]
     fn arbitrary_text_never_panics(text in "\\PC{0,400}") {
@@ -241,8 +145,8 @@ proptest! {
     }
 
     #[test]
-    fn mutated_urdf_never_panics(mutations in prop::collection::vec(mutation(), 1..8)) {
-        load(&apply(BASE, &mutations));
+    fn mutated_urdf_never_panics(mutations in prop::collection::vec(mutation(TOKENS, NUMBERS), 1..8)) {
+        load(&apply(BASE, &mutations, xml_number_spans));
     }
 
     #[test]
@@ -250,8 +154,8 @@ proptest! {
         numbers in prop::collection::vec((any::<Index>(), select(NUMBERS)), 1..6)
     ) {
         let mutations: Vec<Mutation> =
-            numbers.into_iter().map(|(i, v)| Mutation::Number(i, v)).collect();
-        load(&apply(BASE, &mutations));
+            numbers.into_iter().map(|(i, v)| Mutation::Number(i, v.to_string())).collect();
+        load(&apply(BASE, &mutations, xml_number_spans));
     }
 }
 
@@ -260,7 +164,7 @@ fn base_loads() {
     let m = RobotModel::from_urdf_str(BASE, "fuzz.urdf").unwrap();
     check_usable(&m);
     assert_eq!(m.casters.len(), 1);
-    assert!(number_spans(BASE).len() > 60);
+    assert!(xml_number_spans(BASE).len() > 60);
 }
 
 /// Inputs the fuzzing above found (or that were found by hand while writing it).

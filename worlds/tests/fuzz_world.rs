@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use atrium_fuzz::{apply, config, mutation, toml_number_spans, Mutation};
 use atrium_worlds::{World, MAX_COORDINATE_M};
 use proptest::prelude::*;
 use proptest::sample::{select, Index};
@@ -166,34 +167,6 @@ const NUMBERS: &[&str] = &[
     "234",
 ];
 
-/// Byte ranges of the numbers in `text` (outside strings and comments, roughly).
-fn number_spans(text: &str) -> Vec<(usize, usize)> {
-    let b = text.as_bytes();
-    let mut spans = Vec::new();
-    let mut i = 0;
-    let mut in_string = false;
-    while i < b.len() {
-        let c = b[i];
-        if c == b'"' {
-            in_string = !in_string;
-            i += 1;
-            continue;
-        }
-        let boundary = i == 0 || b" [,=".contains(&b[i - 1]);
-        if !in_string && boundary && (c.is_ascii_digit() || c == b'-') {
-            let mut j = i;
-            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"-.+_".contains(&b[j])) {
-                j += 1;
-            }
-            spans.push((i, j));
-            i = j;
-        } else {
-            i += 1;
-        }
-    }
-    spans
-}
-
 /// What a loaded world must satisfy however hostile the text was.
 fn check_usable(w: &World) {
     w.validate(Path::new("<fuzz>"))
@@ -247,75 +220,8 @@ fn load(text: &str) {
     }
 }
 
-#[derive(Debug, Clone)]
-enum Mutation {
-    Delete(Index, usize),
-    Insert(Index, &'static str),
-    Duplicate(Index, usize),
-    Number(Index, String),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        (any::<Index>(), 1usize..40).prop_map(|(i, n)| Mutation::Delete(i, n)),
-        (any::<Index>(), select(TOKENS)).prop_map(|(i, t)| Mutation::Insert(i, t)),
-        (any::<Index>(), 1usize..300).prop_map(|(i, n)| Mutation::Duplicate(i, n)),
-        (any::<Index>(), select(NUMBERS)).prop_map(|(i, v)| Mutation::Number(i, v.into())),
-        (any::<Index>(), any::<f64>()).prop_map(|(i, v)| Mutation::Number(i, format!("{v:?}"))),
-    ]
-}
-
-fn floor_boundary(s: &str, mut at: usize) -> usize {
-    at = at.min(s.len());
-    while !s.is_char_boundary(at) {
-        at -= 1;
-    }
-    at
-}
-
-fn apply(text: &str, mutations: &[Mutation]) -> String {
-    let mut s = text.to_string();
-    for m in mutations {
-        let at = |i: &Index, s: &str| floor_boundary(s, i.index(s.len() + 1));
-        match m {
-            Mutation::Delete(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                s.replace_range(a..b, "");
-            }
-            Mutation::Insert(i, t) => {
-                let a = at(i, &s);
-                s.insert_str(a, t);
-            }
-            Mutation::Duplicate(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                let piece = s[a..b].to_string();
-                s.insert_str(b, &piece);
-            }
-            Mutation::Number(i, v) => {
-                let spans = number_spans(&s);
-                if !spans.is_empty() {
-                    let (a, b) = spans[i.index(spans.len())];
-                    s.replace_range(a..b, v);
-                }
-            }
-        }
-    }
-    s
-}
-
-fn config() -> ProptestConfig {
-    ProptestConfig {
-        cases: 256,
-        // Failures are kept as explicit tests below, not in a regressions file.
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    }
-}
-
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(config(256))]
 
     #[test]
     fn arbitrary_text_never_panics(text in "\\PC{0,400}") {
@@ -328,8 +234,8 @@ proptest! {
     }
 
     #[test]
-    fn mutated_world_never_panics(mutations in prop::collection::vec(mutation(), 1..8)) {
-        load(&apply(BASE, &mutations));
+    fn mutated_world_never_panics(mutations in prop::collection::vec(mutation(TOKENS, NUMBERS), 1..8)) {
+        load(&apply(BASE, &mutations, toml_number_spans));
     }
 
     #[test]
@@ -337,8 +243,8 @@ proptest! {
         numbers in prop::collection::vec((any::<Index>(), select(NUMBERS)), 1..6)
     ) {
         let mutations: Vec<Mutation> =
-            numbers.into_iter().map(|(i, v)| Mutation::Number(i, v.into())).collect();
-        load(&apply(BASE, &mutations));
+            numbers.into_iter().map(|(i, v)| Mutation::Number(i, v.to_string())).collect();
+        load(&apply(BASE, &mutations, toml_number_spans));
     }
 }
 
@@ -347,9 +253,9 @@ fn base_loads() {
     let w = World::from_toml_str(BASE, Path::new("fuzz.toml")).unwrap();
     check_usable(&w);
     assert!(
-        number_spans(BASE).len() > 60,
+        toml_number_spans(BASE).len() > 60,
         "{}",
-        number_spans(BASE).len()
+        toml_number_spans(BASE).len()
     );
 }
 
