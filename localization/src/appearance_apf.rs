@@ -287,24 +287,15 @@ impl Default for ApfParams {
 impl ApfParams {
     /// Checks every field; the message names it.
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=200_000).contains(&self.particles) {
-            return Err(format!(
-                "particles must be within [1, 200000], got {}",
-                self.particles
-            ));
-        }
-        if !(1..=1000).contains(&self.j_intensity) {
-            return Err(format!(
-                "j_intensity must be within [1, 1000], got {}",
-                self.j_intensity
-            ));
-        }
-        if !(1..=1000).contains(&self.j_each) {
-            return Err(format!(
-                "j_each must be within [1, 1000], got {}",
-                self.j_each
-            ));
-        }
+        use crate::limits::{check_count_min1, APF_MAX_J, APF_MAX_PARTICLES};
+        check_count_min1(
+            "particles",
+            self.particles,
+            APF_MAX_PARTICLES,
+            "APF_MAX_PARTICLES",
+        )?;
+        check_count_min1("j_intensity", self.j_intensity, APF_MAX_J, "APF_MAX_J")?;
+        check_count_min1("j_each", self.j_each, APF_MAX_J, "APF_MAX_J")?;
         if !(self.w_d.is_finite() && (0.0..=1.0).contains(&self.w_d)) {
             return Err(format!("w_d must be within [0, 1], got {}", self.w_d));
         }
@@ -1026,5 +1017,24 @@ mod tests {
         .unwrap();
         assert_eq!(f.updates(), 2);
         assert_eq!(f.last_sensor_model().len(), 5);
+    }
+
+    #[test]
+    fn counts_above_their_limits_name_field_and_limit() {
+        use crate::limits::{APF_MAX_J, APF_MAX_PARTICLES};
+        let p = |particles: usize, j: usize| ApfParams {
+            particles,
+            j_intensity: j,
+            ..ApfParams::default()
+        };
+        assert!(p(APF_MAX_PARTICLES, APF_MAX_J).validate().is_ok());
+        assert_eq!(
+            p(APF_MAX_PARTICLES + 1, 10).validate().unwrap_err(),
+            "particles: 200001 is more than the limit of 200000 (APF_MAX_PARTICLES)"
+        );
+        assert_eq!(
+            p(500, APF_MAX_J + 1).validate().unwrap_err(),
+            "j_intensity: 1001 is more than the limit of 1000 (APF_MAX_J)"
+        );
     }
 }

@@ -45,7 +45,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-const PARTICLE_LIMIT: usize = 1_000_000;
+use crate::limits::{check_count, check_count_min1, MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS};
 
 /// CGR parameters, as written in a scenario file. Every field has a default.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -126,19 +126,14 @@ impl CgrParams {
                 Err(format!("{name} must be finite and > 0, got {v}"))
             }
         };
-        if !(1..=PARTICLE_LIMIT).contains(&self.particles) {
-            return Err(format!(
-                "particles must be in 1..={PARTICLE_LIMIT}, got {}",
-                self.particles
-            ));
-        }
+        check_count_min1("particles", self.particles, MAX_PARTICLES, "MAX_PARTICLES")?;
         crate::motion::validate_alpha(&self.alpha)?;
-        if self.refinements > 100 {
-            return Err(format!(
-                "refinements must be <= 100, got {}",
-                self.refinements
-            ));
-        }
+        check_count(
+            "refinements",
+            self.refinements,
+            MAX_REFINEMENTS,
+            "MAX_REFINEMENTS",
+        )?;
         if !(self.step > 0.0 && self.step <= 1.0) {
             return Err(format!("step must be in (0, 1], got {}", self.step));
         }
@@ -148,6 +143,7 @@ impl CgrParams {
         if self.max_points < 3 {
             return Err(format!("max_points must be >= 3, got {}", self.max_points));
         }
+        check_count("max_points", self.max_points, MAX_BEAMS, "MAX_BEAMS")?;
         if !(3..=self.max_points).contains(&self.min_points) {
             return Err(format!(
                 "min_points must be within [3, max_points = {}], got {}",
@@ -843,5 +839,36 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("sigma"), "{e}");
+    }
+
+    #[test]
+    fn counts_above_their_limits_name_field_and_limit() {
+        use crate::limits::{MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS};
+        let check = |f: fn(&mut CgrParams)| {
+            let mut p = CgrParams::default();
+            f(&mut p);
+            p.validate()
+        };
+        assert!(check(|p| p.particles = MAX_PARTICLES).is_ok());
+        assert_eq!(
+            check(|p| p.particles = MAX_PARTICLES + 1).unwrap_err(),
+            "particles: 1000001 is more than the limit of 1000000 (MAX_PARTICLES)"
+        );
+        assert!(check(|p| p.max_points = MAX_BEAMS).is_ok());
+        assert_eq!(
+            check(|p| p.max_points = 1_000_000_000_000).unwrap_err(),
+            "max_points: 1000000000000 is more than the limit of 100000 (MAX_BEAMS)"
+        );
+        assert!(check(|p| p.refinements = MAX_REFINEMENTS).is_ok());
+        assert!(check(|p| p.refinements = MAX_REFINEMENTS + 1)
+            .unwrap_err()
+            .contains("MAX_REFINEMENTS"));
+        assert_eq!(
+            check(|p| p.fspf.n_max = usize::MAX).unwrap_err(),
+            format!(
+                "fspf.n_max: {} is more than the limit of 100000 (FSPF_MAX_POINTS)",
+                usize::MAX
+            )
+        );
     }
 }

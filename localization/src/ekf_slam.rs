@@ -149,6 +149,19 @@ impl EkfSlamParams {
         if self.max_features == 0 {
             return Err("max_features: must be at least 1".into());
         }
+        crate::limits::check_count(
+            "max_features",
+            self.max_features,
+            crate::limits::EKF_MAX_FEATURES,
+            "EKF_MAX_FEATURES",
+        )?;
+        if self.frames_s.len() > crate::limits::EKF_MAX_FRAMES {
+            return Err(format!(
+                "frames_s: {} snapshots are more than the limit of {} (EKF_MAX_FRAMES)",
+                self.frames_s.len(),
+                crate::limits::EKF_MAX_FRAMES
+            ));
+        }
         if !(self.fault_gamma.is_finite() && self.fault_gamma > 0.0 && self.fault_gamma <= 1.0) {
             return Err(format!(
                 "fault_gamma: must be in (0, 1] (got {})",
@@ -1259,5 +1272,24 @@ mod tests {
         assert!((snaps[0].stamp - 0.3).abs() < 1e-12 && (snaps[1].stamp - 0.4).abs() < 1e-12);
         assert_eq!(snaps[1].features(), 1);
         assert_eq!(snaps[1].cov(3, 4), s.covariance()[(3, 4)]);
+    }
+
+    #[test]
+    fn map_and_snapshot_sizes_above_their_limits_are_refused() {
+        use crate::limits::{EKF_MAX_FEATURES, EKF_MAX_FRAMES};
+        let p = |features: usize, frames: usize| EkfSlamParams {
+            max_features: features,
+            frames_s: vec![1.0; frames],
+            ..EkfSlamParams::default()
+        };
+        assert!(p(EKF_MAX_FEATURES, EKF_MAX_FRAMES).validate().is_ok());
+        assert_eq!(
+            p(1_000_000_000, 1).validate().unwrap_err(),
+            "max_features: 1000000000 is more than the limit of 5000 (EKF_MAX_FEATURES)"
+        );
+        assert_eq!(
+            p(500, EKF_MAX_FRAMES + 1).validate().unwrap_err(),
+            "frames_s: 101 snapshots are more than the limit of 100 (EKF_MAX_FRAMES)"
+        );
     }
 }

@@ -6,7 +6,10 @@
 //! The map is plain data: sums and counts per (localizer, cell), so maps from shards or trials
 //! merge exactly by adding.
 
+use crate::limits::{check_grid, fmt_count, MAX_LOOKUP_RADIUS_CELLS};
 use std::fmt::Write as _;
+
+pub use crate::limits::ERROR_MAP_MAX_VALUES;
 
 /// Mean error per localizer and grid cell. Cell (i, j) covers
 /// `[origin + i·res, origin + (i+1)·res) × [origin + j·res, ...)`.
@@ -32,7 +35,8 @@ pub struct ErrorMapParseError {
 }
 
 impl ErrorMap {
-    /// An empty map covering `[min, max]` with square cells of `resolution` metres.
+    /// An empty map covering `[min, max]` with square cells of `resolution` metres. Refused,
+    /// before anything is allocated, when the cells × layers exceed [`ERROR_MAP_MAX_VALUES`].
     pub fn new(
         min: [f64; 2],
         max: [f64; 2],
@@ -40,7 +44,9 @@ impl ErrorMap {
         localizers: Vec<String>,
     ) -> Result<Self, String> {
         if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(format!("resolution must be positive, got {resolution}"));
+            return Err(format!(
+                "resolution must be finite and > 0, got {resolution}"
+            ));
         }
         if !(min.iter().chain(max.iter()).all(|v| v.is_finite())
             && max[0] > min[0]
@@ -48,8 +54,10 @@ impl ErrorMap {
         {
             return Err(format!("empty or non-finite bounds {min:?}..{max:?}"));
         }
-        let width = ((max[0] - min[0]) / resolution).ceil() as usize;
-        let height = ((max[1] - min[1]) / resolution).ceil() as usize;
+        Self::check_size(min, max, resolution, localizers.len())?;
+        let extent = [max[0] - min[0], max[1] - min[1]];
+        let width = ((extent[0] / resolution).ceil() as usize).max(1);
+        let height = ((extent[1] / resolution).ceil() as usize).max(1);
         let n = width * height * localizers.len();
         Ok(ErrorMap {
             origin: min,
@@ -60,6 +68,29 @@ impl ErrorMap {
             sum: vec![0.0; n],
             count: vec![0; n],
         })
+    }
+
+    /// Checks the size of a map [`ErrorMap::new`] would build, without building it: its cells
+    /// × `layers` against [`ERROR_MAP_MAX_VALUES`]. The message starts with `resolution` and
+    /// gives the cells it would need and the finest resolution that fits.
+    pub fn check_size(
+        min: [f64; 2],
+        max: [f64; 2],
+        resolution: f64,
+        layers: usize,
+    ) -> Result<(), String> {
+        let layers = layers.max(1) as u64;
+        check_grid(
+            "resolution",
+            resolution,
+            [max[0] - min[0], max[1] - min[1]],
+            &format!(
+                "area ({layers} layer{})",
+                if layers == 1 { "" } else { "s" }
+            ),
+            ERROR_MAP_MAX_VALUES / layers,
+            "ERROR_MAP_MAX_VALUES / layers",
+        )
     }
 
     /// The cell containing `p`, if it is on the map.
@@ -99,6 +130,9 @@ impl ErrorMap {
             return false;
         }
         let k = self.index(layer, i, j);
+        if self.count[k] == u32::MAX {
+            return false;
+        }
         self.sum[k] += error;
         self.count[k] += 1;
         true
@@ -120,30 +154,49 @@ impl ErrorMap {
     /// within `radius_cells` (Chebyshev rings), so an estimate a little off the driven path
     /// still finds the map.
     pub fn mean_near(&self, layer: usize, p: [f64; 2], radius_cells: usize) -> Option<f64> {
-        let fx = ((p[0] - self.origin[0]) / self.resolution).floor() as i64;
-        let fy = ((p[1] - self.origin[1]) / self.resolution).floor() as i64;
-        for r in 0..=radius_cells as i64 {
-            let mut best: Option<(f64, u32)> = None;
-            for dj in -r..=r {
-                for di in -r..=r {
-                    if di.abs().max(dj.abs()) != r {
-                        continue;
-                    }
-                    let (i, j) = (fx + di, fy + dj);
-                    if i < 0 || j < 0 || i as usize >= self.width || j as usize >= self.height {
-                        continue;
-                    }
-                    if let Some((m, n)) = self.mean(layer, i as usize, j as usize) {
-                        // Pool the ring: sample-weighted mean of its visited cells.
-                        best = Some(match best {
-                            None => (m * n as f64, n),
-                            Some((s, c)) => (s + m * n as f64, c + n),
-                        });
-                    }
+        let fx = ((p[0] - self.origin[0]) / self.resolution).floor();
+        let fy = ((p[1] - self.origin[1]) / self.resolution).floor();
+        if !(fx.is_finite() && fy.is_finite()) {
+            return None;
+        }
+        // Rings wider than the map (or than the limit) add nothing; i64 cannot overflow then.
+        let span = self.width.max(self.height) as f64;
+        let radius = radius_cells.min(MAX_LOOKUP_RADIUS_CELLS) as f64;
+        if fx < -radius - 1.0 || fy < -radius - 1.0 || fx > span + radius || fy > span + radius {
+            return None;
+        }
+        let (fx, fy) = (fx as i64, fy as i64);
+        let visit = |i: i64, j: i64, best: &mut Option<(f64, f64)>| {
+            if i < 0 || j < 0 || i as usize >= self.width || j as usize >= self.height {
+                return;
+            }
+            if let Some((m, n)) = self.mean(layer, i as usize, j as usize) {
+                // Pool the ring: sample-weighted mean of its visited cells.
+                let n = n as f64;
+                *best = Some(match *best {
+                    None => (m * n, n),
+                    Some((s, c)) => (s + m * n, c + n),
+                });
+            }
+        };
+        for r in 0..=radius as i64 {
+            let mut best: Option<(f64, f64)> = None;
+            if r == 0 {
+                visit(fx, fy, &mut best);
+            }
+            // The ring's cells only: its top and bottom rows, then its sides.
+            for d in -r..=r {
+                if r > 0 {
+                    visit(fx + d, fy - r, &mut best);
+                    visit(fx + d, fy + r, &mut best);
                 }
             }
+            for d in (1 - r)..r {
+                visit(fx - r, fy + d, &mut best);
+                visit(fx + r, fy + d, &mut best);
+            }
             if let Some((s, c)) = best {
-                return Some(s / c as f64);
+                return Some(s / c);
             }
         }
         None
@@ -170,8 +223,9 @@ impl ErrorMap {
         for (a, b) in self.sum.iter_mut().zip(&other.sum) {
             *a += b;
         }
+        // 4 billion samples in one cell cannot come from runs; saturate rather than wrap.
         for (a, b) in self.count.iter_mut().zip(&other.count) {
-            *a += b;
+            *a = a.saturating_add(*b);
         }
         Ok(())
     }
@@ -208,7 +262,12 @@ impl ErrorMap {
         s
     }
 
-    /// Parses [`ErrorMap::to_csv`] output. Localizers appear in the order first seen.
+    /// Parses [`ErrorMap::to_csv`] output. Localizers appear in the order first seen; rows of
+    /// the same localizer and cell add up (merged shards). Refused, with the line and the
+    /// field: a header that is not finite (origin), not positive (resolution), not a whole
+    /// number of cells, or a grid whose cells × layers exceed [`ERROR_MAP_MAX_VALUES`] (checked
+    /// before anything is allocated); rows outside the declared grid, with a malformed or
+    /// non-finite number, or whose counts overflow.
     pub fn from_csv(text: &str) -> Result<ErrorMap, ErrorMapParseError> {
         let err = |line: usize, message: String| ErrorMapParseError { line, message };
         let mut lines = text.lines().enumerate();
@@ -216,63 +275,178 @@ impl ErrorMap {
         let head = head
             .strip_prefix("# atrium error map:")
             .ok_or_else(|| err(1, "missing '# atrium error map:' header".into()))?;
-        let field = |key: &str| -> Result<f64, ErrorMapParseError> {
+        let value = |key: &str| -> Result<&str, ErrorMapParseError> {
             head.split_whitespace()
                 .find_map(|kv| kv.strip_prefix(key).and_then(|v| v.strip_prefix('=')))
-                .ok_or_else(|| err(1, format!("header lacks {key}")))?
-                .parse::<f64>()
-                .map_err(|e| err(1, format!("{key}: {e}")))
+                .ok_or_else(|| err(1, format!("{key}: missing from the header")))
         };
-        let origin = [field("origin_x")?, field("origin_y")?];
-        let resolution = field("resolution")?;
-        let (width, height) = (field("width")?, field("height")?);
-        if !(resolution > 0.0 && width >= 1.0 && height >= 1.0 && width * height <= 1e8) {
-            return Err(err(1, "impossible grid size".into()));
+        let finite = |key: &str| -> Result<f64, ErrorMapParseError> {
+            let v = value(key)?;
+            match v.parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                Ok(x) => Err(err(1, format!("{key}: must be finite, got {x}"))),
+                Err(e) => Err(err(1, format!("{key}: {v:?} is not a number ({e})"))),
+            }
+        };
+        let cells = |key: &str| -> Result<u64, ErrorMapParseError> {
+            let v = value(key)?;
+            match v.parse::<u64>() {
+                Ok(n) if n >= 1 => Ok(n),
+                _ => Err(err(
+                    1,
+                    format!("{key}: must be a whole number of cells >= 1, got {v:?}"),
+                )),
+            }
+        };
+        let origin = [finite("origin_x")?, finite("origin_y")?];
+        let resolution = finite("resolution")?;
+        if resolution <= 0.0 {
+            return Err(err(1, format!("resolution: must be > 0, got {resolution}")));
+        }
+        let (width, height) = (cells("width")?, cells("height")?);
+        let far = [
+            origin[0] + width as f64 * resolution,
+            origin[1] + height as f64 * resolution,
+        ];
+        if !(far[0].is_finite() && far[1].is_finite()) {
+            return Err(err(
+                1,
+                format!(
+                    "resolution: {width} × {height} cells of {resolution} m from {origin:?} \
+                     reach beyond the finite numbers"
+                ),
+            ));
+        }
+        let area = width as f64 * height as f64;
+        if area > ERROR_MAP_MAX_VALUES as f64 {
+            return Err(err(
+                1,
+                format!(
+                    "width: {width} × {height} is {} cells, more than the limit of \
+                     {ERROR_MAP_MAX_VALUES} (ERROR_MAP_MAX_VALUES)",
+                    fmt_count(area)
+                ),
+            ));
         }
         let (width, height) = (width as usize, height as usize);
         match lines.next() {
             Some((_, "localizer,i,j,x,y,mean_error,samples,sum")) => {}
-            _ => return Err(err(2, "missing column header".into())),
+            _ => {
+                return Err(err(
+                    2,
+                    "missing column header localizer,i,j,x,y,mean_error,samples,sum".into(),
+                ))
+            }
         }
-        let mut rows = Vec::new();
+        let mut rows: Vec<(usize, usize, usize, u32, f64)> = Vec::new();
         let mut names: Vec<String> = Vec::new();
         for (n, line) in lines {
+            let line_no = n + 1;
             if line.trim().is_empty() {
                 continue;
             }
             let f: Vec<&str> = line.split(',').collect();
             if f.len() != 8 {
-                return Err(err(n + 1, format!("expected 8 fields, got {}", f.len())));
+                return Err(err(line_no, format!("expected 8 fields, got {}", f.len())));
             }
-            let parse_u = |s: &str, what: &str| {
-                s.parse::<usize>()
-                    .map_err(|e| err(n + 1, format!("{what}: {e}")))
+            let bad = |what: &str, msg: String| err(line_no, format!("{what}: {msg}"));
+            if f[0].trim().is_empty() {
+                return Err(bad("localizer", "must not be empty".into()));
+            }
+            let index = |s: &str, what: &str, size: usize| match s.parse::<usize>() {
+                Ok(v) if v < size => Ok(v),
+                Ok(v) => Err(bad(
+                    what,
+                    format!("{v} lies outside the declared grid of {width} × {height} cells"),
+                )),
+                Err(e) => Err(bad(what, format!("{s:?} is not a cell index ({e})"))),
             };
-            let (i, j) = (parse_u(f[1], "i")?, parse_u(f[2], "j")?);
-            let samples = parse_u(f[6], "samples")? as u32;
-            let sum: f64 = f[7].parse().map_err(|e| err(n + 1, format!("sum: {e}")))?;
-            if i >= width || j >= height || !sum.is_finite() || sum < 0.0 {
-                return Err(err(n + 1, "cell or sum out of range".into()));
+            let (i, j) = (index(f[1], "i", width)?, index(f[2], "j", height)?);
+            for (k, what) in [(3, "x"), (4, "y"), (5, "mean_error")] {
+                match f[k].parse::<f64>() {
+                    Ok(v) if v.is_finite() => {}
+                    _ => {
+                        return Err(bad(
+                            what,
+                            format!("must be a finite number, got {:?}", f[k]),
+                        ))
+                    }
+                }
             }
-            if !names.iter().any(|x| x == f[0]) {
-                names.push(f[0].to_string());
+            let samples: u32 = f[6].parse().map_err(|e| {
+                bad(
+                    "samples",
+                    format!("{:?} is not a count of at most {} ({e})", f[6], u32::MAX),
+                )
+            })?;
+            // Only visited cells are written: a row without samples has no mean.
+            if samples == 0 {
+                return Err(bad("samples", "must be at least 1, got 0".into()));
             }
-            rows.push((f[0].to_string(), i, j, samples, sum));
+            let sum: f64 = match f[7].parse::<f64>() {
+                Ok(v) if v.is_finite() && v >= 0.0 => v,
+                _ => {
+                    return Err(bad(
+                        "sum",
+                        format!("must be a finite number >= 0, got {:?}", f[7]),
+                    ))
+                }
+            };
+            let l = match names.iter().position(|x| x == f[0]) {
+                Some(l) => l,
+                None => {
+                    // Each new layer adds a whole grid: checked before it is allocated.
+                    let values = area * (names.len() + 1) as f64;
+                    if values > ERROR_MAP_MAX_VALUES as f64 {
+                        return Err(bad(
+                            "localizer",
+                            format!(
+                                "layer {} ({:?}) makes {width} × {height} cells × {} layers = \
+                                 {} values, more than the limit of {ERROR_MAP_MAX_VALUES} \
+                                 (ERROR_MAP_MAX_VALUES)",
+                                names.len() + 1,
+                                f[0],
+                                names.len() + 1,
+                                fmt_count(values)
+                            ),
+                        ));
+                    }
+                    names.push(f[0].to_string());
+                    names.len() - 1
+                }
+            };
+            rows.push((line_no, l, j * width + i, samples, sum));
         }
+        let n = width * height * names.len();
         let mut map = ErrorMap {
             origin,
             resolution,
             width,
             height,
-            sum: vec![0.0; width * height * names.len()],
-            count: vec![0; width * height * names.len()],
+            sum: vec![0.0; n],
+            count: vec![0; n],
             localizers: names,
         };
-        for (name, i, j, samples, sum) in rows {
-            let l = map.localizer_index(&name).expect("name collected above");
-            let k = map.index(l, i, j);
+        for (line_no, l, cell, samples, sum) in rows {
+            let k = l * width * height + cell;
             map.sum[k] += sum;
-            map.count[k] += samples;
+            map.count[k] = map.count[k].checked_add(samples).ok_or_else(|| {
+                err(
+                    line_no,
+                    format!(
+                        "samples: the rows of this localizer and cell add up to more than {}",
+                        u32::MAX
+                    ),
+                )
+            })?;
+            if !map.sum[k].is_finite() {
+                return Err(err(
+                    line_no,
+                    "sum: the rows of this localizer and cell add up to more than the finite \
+                     numbers"
+                        .into(),
+                ));
+            }
         }
         Ok(map)
     }
@@ -341,5 +515,138 @@ mod tests {
         let text = map().to_csv() + "laser,9,0,0,0,1,1,1\n";
         let e = ErrorMap::from_csv(&text).unwrap_err();
         assert_eq!(e.line, 3);
+    }
+
+    fn csv(header: &str, rows: &str) -> Result<ErrorMap, ErrorMapParseError> {
+        ErrorMap::from_csv(&format!(
+            "# atrium error map: {header}\nlocalizer,i,j,x,y,mean_error,samples,sum\n{rows}"
+        ))
+    }
+
+    const GRID: &str = "origin_x=0 origin_y=0 resolution=1 width=4 height=2";
+
+    #[test]
+    fn hostile_headers_are_refused_with_line_and_field() {
+        let e = |header: &str| csv(header, "").unwrap_err();
+        let nan = e("origin_x=NaN origin_y=0 resolution=1 width=4 height=2");
+        assert_eq!(nan.line, 1);
+        assert_eq!(nan.message, "origin_x: must be finite, got NaN");
+        let inf = e("origin_x=0 origin_y=0 resolution=inf width=4 height=2");
+        assert_eq!(inf.message, "resolution: must be finite, got inf");
+        let zero = e("origin_x=0 origin_y=0 resolution=0 width=4 height=2");
+        assert_eq!(zero.message, "resolution: must be > 0, got 0");
+        assert!(e("origin_x=0 origin_y=0 resolution=1 width=4.5 height=2")
+            .message
+            .starts_with("width: must be a whole number of cells"));
+        assert!(e("origin_x=0 origin_y=0 resolution=1 width=0 height=2")
+            .message
+            .starts_with("width: must be a whole number of cells"));
+        assert!(
+            e("origin_x=0 origin_y=0 resolution=1e306 width=1000 height=2")
+                .message
+                .contains("beyond the finite numbers")
+        );
+        assert_eq!(
+            e("origin_x=0 origin_y=0 resolution=1 width=1000000000 height=1000000000").message,
+            "width: 1000000000 × 1000000000 is 1e18 cells, more than the limit of 50000000 \
+             (ERROR_MAP_MAX_VALUES)"
+        );
+        assert!(e("origin_x=0 resolution=1 width=4 height=2")
+            .message
+            .starts_with("origin_y: missing"));
+        // At the limit the header is accepted (no layer is allocated without rows).
+        let at = csv(
+            &format!("origin_x=0 origin_y=0 resolution=1 width={ERROR_MAP_MAX_VALUES} height=1"),
+            "",
+        )
+        .unwrap();
+        assert_eq!(
+            (at.width, at.localizers.len()),
+            (ERROR_MAP_MAX_VALUES as usize, 0)
+        );
+        assert!(csv(
+            &format!(
+                "origin_x=0 origin_y=0 resolution=1 width={} height=1",
+                ERROR_MAP_MAX_VALUES + 1
+            ),
+            "",
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn hostile_rows_are_refused_with_line_and_field() {
+        let e = |rows: &str| csv(GRID, rows).unwrap_err();
+        let out = e("a,0,0,0.5,0.5,1,1,1\na,4,0,4.5,0.5,1,1,1\n");
+        assert_eq!(out.line, 4);
+        assert_eq!(
+            out.message,
+            "i: 4 lies outside the declared grid of 4 × 2 cells"
+        );
+        assert!(e("a,0,-1,0,0,1,1,1\n")
+            .message
+            .starts_with("j: \"-1\" is not a cell index"));
+        assert!(e("a,0,0,NaN,0,1,1,1\n")
+            .message
+            .starts_with("x: must be a finite number"));
+        assert!(e("a,0,0,0,0,inf,1,1\n")
+            .message
+            .starts_with("mean_error: must be a finite number"));
+        assert!(e("a,0,0,0,0,1,99999999999,1\n")
+            .message
+            .starts_with("samples:"));
+        assert!(e("a,0,0,0,0,1,1,-1\n")
+            .message
+            .starts_with("sum: must be a finite number >= 0"));
+        assert!(e(",0,0,0,0,1,1,1\n")
+            .message
+            .starts_with("localizer: must not be empty"));
+        assert_eq!(
+            e("a,0,0,0,0,1,0,5\n").message,
+            "samples: must be at least 1, got 0"
+        );
+        let twice = e("a,0,0,0,0,1,4294967295,1\na,0,0,0,0,1,1,1\n");
+        assert_eq!(
+            (twice.line, twice.message.starts_with("samples:")),
+            (4, true)
+        );
+        // Rows of one cell add up (merged shards).
+        let m = csv(GRID, "a,1,1,0,0,1,2,3\na,1,1,0,0,1,1,1\n").unwrap();
+        assert_eq!(m.mean(0, 1, 1), Some((4.0 / 3.0, 3)));
+        // Every layer is a whole grid: the one that passes the limit is refused by name.
+        let wide = format!(
+            "origin_x=0 origin_y=0 resolution=1 width={} height=1",
+            ERROR_MAP_MAX_VALUES / 2 + 1
+        );
+        let layers = csv(&wide, "a,0,0,0,0,1,1,1\nb,0,0,0,0,1,1,1\n").unwrap_err();
+        assert_eq!(layers.line, 4);
+        assert!(
+            layers.message.starts_with("localizer: layer 2 (\"b\")")
+                && layers.message.contains("ERROR_MAP_MAX_VALUES"),
+            "{}",
+            layers.message
+        );
+    }
+
+    #[test]
+    fn a_new_map_over_the_limit_is_refused_before_allocating() {
+        let e = ErrorMap::new([0.0, 0.0], [60.0, 40.0], 1e-6, vec!["a".into(), "b".into()])
+            .unwrap_err();
+        assert!(
+            e.starts_with("resolution: 0.000001 m over the 60 m × 40 m area (2 layers) is")
+                && e.contains("more than the limit of 25000000"),
+            "{e}"
+        );
+        assert!(ErrorMap::new([0.0, 0.0], [1.0, 1.0], f64::INFINITY, vec![]).is_err());
+    }
+
+    #[test]
+    fn lookups_far_off_the_map_or_with_huge_radii_end_at_once() {
+        let mut m = map();
+        m.add(0, [0.5, 0.5], 0.4);
+        assert_eq!(m.mean_near(0, [1e300, 0.5], usize::MAX), None);
+        assert_eq!(m.mean_near(0, [f64::NAN, 0.5], 3), None);
+        assert_eq!(m.mean_near(0, [-50.0, 0.5], usize::MAX), Some(0.4));
+        assert_eq!(m.mean_near(1, [0.5, 0.5], usize::MAX), None);
     }
 }

@@ -10,6 +10,9 @@
 //! planes are matched to a 2D vector map"), which is what the depth CGR localizer consumes.
 
 use crate::error::LocalizationError;
+use crate::limits::{
+    check_count, FSPF_MAX_LOCAL_SAMPLES, FSPF_MAX_NEIGHBOURHOODS, FSPF_MAX_POINTS,
+};
 use atrium_robots::DepthImage;
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, Vector3};
 use rand::{Rng, SeedableRng};
@@ -62,6 +65,19 @@ impl FspfParams {
                 return Err(format!("{name} must be >= 1, got 0"));
             }
         }
+        check_count("n_max", self.n_max, FSPF_MAX_POINTS, "FSPF_MAX_POINTS")?;
+        check_count(
+            "k_max",
+            self.k_max,
+            FSPF_MAX_NEIGHBOURHOODS,
+            "FSPF_MAX_NEIGHBOURHOODS",
+        )?;
+        check_count(
+            "l",
+            self.l,
+            FSPF_MAX_LOCAL_SAMPLES,
+            "FSPF_MAX_LOCAL_SAMPLES",
+        )?;
         // Three points define the plane; fewer local samples could never confirm it.
         if self.l < 3 {
             return Err(format!("l must be >= 3, got {}", self.l));
@@ -532,5 +548,42 @@ mod tests {
         .validate()
         .unwrap_err()
         .contains("alpha_in"));
+    }
+
+    #[test]
+    fn sizes_above_their_limits_name_field_and_limit() {
+        use crate::limits::{FSPF_MAX_LOCAL_SAMPLES, FSPF_MAX_NEIGHBOURHOODS, FSPF_MAX_POINTS};
+        let at = FspfParams {
+            n_max: FSPF_MAX_POINTS,
+            k_max: FSPF_MAX_NEIGHBOURHOODS,
+            l: FSPF_MAX_LOCAL_SAMPLES,
+            ..FspfParams::default()
+        };
+        assert!(at.validate().is_ok());
+        for (p, msg) in [
+            (
+                FspfParams {
+                    n_max: FSPF_MAX_POINTS + 1,
+                    ..at
+                },
+                "n_max: 100001 is more than the limit of 100000 (FSPF_MAX_POINTS)",
+            ),
+            (
+                FspfParams {
+                    k_max: FSPF_MAX_NEIGHBOURHOODS + 1,
+                    ..at
+                },
+                "k_max: 200001 is more than the limit of 200000 (FSPF_MAX_NEIGHBOURHOODS)",
+            ),
+            (
+                FspfParams {
+                    l: FSPF_MAX_LOCAL_SAMPLES + 1,
+                    ..at
+                },
+                "l: 1001 is more than the limit of 1000 (FSPF_MAX_LOCAL_SAMPLES)",
+            ),
+        ] {
+            assert_eq!(p.validate().unwrap_err(), msg);
+        }
     }
 }

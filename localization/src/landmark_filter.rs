@@ -289,6 +289,12 @@ impl LandmarkFilterParams {
         if self.training_runs == 0 {
             return Err("training_runs: must be at least 1".into());
         }
+        crate::limits::check_count(
+            "training_runs",
+            self.training_runs,
+            crate::limits::MAX_TRAINING_RUNS,
+            "MAX_TRAINING_RUNS",
+        )?;
         if !(self.survey_heading.is_finite() && (0.0..0.5).contains(&self.survey_heading)) {
             return Err(format!(
                 "survey_heading: must lie in [0, 0.5) rad, got {}",

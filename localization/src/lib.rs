@@ -17,6 +17,7 @@ pub mod gp;
 pub mod kld;
 pub mod landmark_filter;
 pub mod likelihood_field;
+pub mod limits;
 pub mod line_map;
 pub mod localizer;
 pub mod mcl;

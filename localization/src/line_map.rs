@@ -5,6 +5,7 @@
 //! gradient are built on point-to-line distances to the map.
 
 use crate::error::LocalizationError;
+use crate::limits::{check_grid, LINE_MAP_MAX_CELLS};
 use atrium_worlds::VectorMap;
 
 /// Candidate segments kept per grid cell.
@@ -61,7 +62,7 @@ impl LineMap {
     pub fn new(map: &VectorMap, resolution: f64, reach: f64) -> Result<Self, LocalizationError> {
         if !(resolution.is_finite() && resolution > 0.0) {
             return Err(LocalizationError::InvalidParameter(format!(
-                "line map resolution must be finite and > 0, got {resolution}"
+                "map_resolution must be finite and > 0, got {resolution}"
             )));
         }
         if !(reach.is_finite() && reach > 0.0) {
@@ -101,13 +102,22 @@ impl LineMap {
             }
         }
         let origin = [lo[0] - margin, lo[1] - margin];
+        // One cell more than the extent needs on each axis; checked in f64 before the casts.
+        let extent = [
+            hi[0] - lo[0] + 2.0 * margin + resolution,
+            hi[1] - lo[1] + 2.0 * margin + resolution,
+        ];
+        check_grid(
+            "map_resolution",
+            resolution,
+            extent,
+            "vector map",
+            LINE_MAP_MAX_CELLS,
+            "LINE_MAP_MAX_CELLS",
+        )
+        .map_err(LocalizationError::InvalidParameter)?;
         let width = ((hi[0] - lo[0] + 2.0 * margin) / resolution).ceil() as usize + 1;
         let height = ((hi[1] - lo[1] + 2.0 * margin) / resolution).ceil() as usize + 1;
-        if width.saturating_mul(height) > 50_000_000 {
-            return Err(LocalizationError::InvalidParameter(format!(
-                "the line map grid would be {width} × {height} cells; use a coarser resolution"
-            )));
-        }
         let mut cells = vec![[NONE; CANDIDATES]; width * height];
         let mut dist = vec![[f64::INFINITY; CANDIDATES]; width * height];
         let half_diag = 0.5 * resolution * std::f64::consts::SQRT_2;
@@ -263,5 +273,20 @@ mod tests {
         assert!((lm.lines()[0].line_offset([1.0, 0.25]) - 0.25).abs() < 1e-12);
         assert!(LineMap::new(&VectorMap::default(), 0.1, 0.5).is_err());
         assert!(LineMap::new(&map, 0.0, 0.5).is_err());
+    }
+
+    #[test]
+    fn a_grid_over_the_limit_is_refused_before_it_is_allocated() {
+        let e = LineMap::new(&square(), 1e-6, 0.5).unwrap_err().to_string();
+        assert!(
+            e.contains("map_resolution: 0.000001 m over the 5 m × 5 m vector map")
+                && e.contains("more than the limit of 20000000 (LINE_MAP_MAX_CELLS)"),
+            "{e}"
+        );
+        // 1e-300 used to overflow the width to usize::MAX + 1.
+        assert!(LineMap::new(&square(), 1e-300, 0.5).is_err());
+        // The finest resolution the limit allows for this square: 5 m / √(2·10⁷) ≈ 1.12 mm.
+        let r = crate::limits::finest_resolution([5.0, 5.0], crate::limits::LINE_MAP_MAX_CELLS);
+        assert!(crate::limits::check_grid("g", r, [5.0, 5.0], "m", 20_000_000, "L").is_ok());
     }
 }

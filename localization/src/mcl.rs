@@ -5,6 +5,9 @@
 use crate::error::LocalizationError;
 use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
+use crate::limits::{
+    check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
+};
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
@@ -18,10 +21,6 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-
-/// Above this many particles a parameter file is more likely wrong than ambitious, and the
-/// buffers (seven f64/usize arrays) would take gigabytes.
-const PARTICLE_LIMIT: usize = 10_000_000;
 
 /// Range the likelihood table is first built for; rebuilt in place at the first scan whose
 /// `range_max` differs.
@@ -56,7 +55,7 @@ pub struct MclParams {
     /// Beams used per scan, evenly spread over the valid ones. Default 60.
     pub max_beams: usize,
     /// Resolution of the likelihood field, metres; the map is resampled to it if it differs.
-    /// Default 0.05.
+    /// Default 0.02 (see NOTES.md: coarser cells bias the estimate along corridors).
     pub grid_resolution: f64,
     /// Distance cap of the likelihood field, metres. Default 2.0.
     pub max_dist: f64,
@@ -124,12 +123,12 @@ impl MclParams {
                 self.max_particles, self.min_particles
             ));
         }
-        if self.max_particles > PARTICLE_LIMIT {
-            return Err(format!(
-                "max_particles must be <= {PARTICLE_LIMIT}, got {}",
-                self.max_particles
-            ));
-        }
+        check_count_min1(
+            "max_particles",
+            self.max_particles,
+            MAX_GLOBAL_PARTICLES,
+            "MAX_GLOBAL_PARTICLES",
+        )?;
         for (i, a) in self.alpha.iter().enumerate() {
             non_negative(&format!("alpha[{i}]"), *a)?;
         }
@@ -148,9 +147,7 @@ impl MclParams {
         // z_rand is the floor of every beam's likelihood (and the value off the map): with 0
         // one unexplained beam would veto a particle outright.
         positive("z_rand", self.z_rand)?;
-        if self.max_beams == 0 {
-            return Err("max_beams must be >= 1, got 0".into());
-        }
+        check_count_min1("max_beams", self.max_beams, MAX_BEAMS, "MAX_BEAMS")?;
         positive("grid_resolution", self.grid_resolution)?;
         positive("max_dist", self.max_dist)?;
         non_negative("alpha_slow", self.alpha_slow)?;
@@ -170,6 +167,20 @@ impl MclParams {
         non_negative("update_min_d", self.update_min_d)?;
         non_negative("update_min_a", self.update_min_a)?;
         Ok(())
+    }
+
+    /// Checks the size of the likelihood field this filter builds over a map `extent` metres
+    /// wide and high (at `grid_resolution`) against [`MCL_MAX_GRID_CELLS`], before anything
+    /// is built; the message gives the cells it would need and the finest resolution that fits.
+    pub fn check_field_size(&self, extent: [f64; 2]) -> Result<(), String> {
+        check_grid(
+            "grid_resolution",
+            self.grid_resolution,
+            extent,
+            "map",
+            MCL_MAX_GRID_CELLS,
+            "MCL_MAX_GRID_CELLS",
+        )
     }
 
     fn recovery_enabled(&self) -> bool {
@@ -279,6 +290,13 @@ impl MclMap {
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
         validate_grid(grid)?;
+        let extent = [
+            grid.width as f64 * grid.resolution,
+            grid.height as f64 * grid.resolution,
+        ];
+        params
+            .check_field_size(extent)
+            .map_err(LocalizationError::InvalidParameter)?;
         let resampled;
         let grid =
             if (grid.resolution - params.grid_resolution).abs() > 1e-9 * params.grid_resolution {

@@ -17,6 +17,7 @@
 //! interpolates the map's features bilinearly in position and linearly in rotation.
 
 use crate::error::LocalizationError;
+use crate::limits::{MAX_PCA_SAMPLES, OMNI_MAX_FEATURES};
 use crate::pca::{Pca, PcaMethod};
 use atrium_robots::{normalize_angle, Pose2};
 use rand::seq::index::sample;
@@ -105,7 +106,7 @@ impl OmniMap {
                 "origin must be finite and step finite and > 0, got {origin:?}, {step}"
             )));
         }
-        if nx == 0 || ny == 0 || images.len() != nx * ny {
+        if nx == 0 || ny == 0 || Some(images.len()) != nx.checked_mul(ny) {
             return Err(bad(format!(
                 "need one panorama per node of the {nx} × {ny} grid, got {}",
                 images.len()
@@ -135,6 +136,23 @@ impl OmniMap {
                     "panorama {k} has a non-finite pixel at index {p}"
                 )));
             }
+        }
+        // Sizes, before the rotated copies and the features are allocated.
+        let pca_images = params.pca_locations.clamp(1, images.len()) as f64 * r as f64;
+        if pca_images > MAX_PCA_SAMPLES as f64 {
+            return Err(bad(format!(
+                "pca_locations × rotations = {pca_images} images, more than the limit of \
+                 {MAX_PCA_SAMPLES} (MAX_PCA_SAMPLES)"
+            )));
+        }
+        let features = images.len() as f64 * r as f64 * params.d as f64;
+        if features > OMNI_MAX_FEATURES as f64 {
+            return Err(bad(format!(
+                "d: {} nodes × {r} rotations × {} = {features} features, more than the limit \
+                 of {OMNI_MAX_FEATURES} (OMNI_MAX_FEATURES)",
+                images.len(),
+                params.d
+            )));
         }
         let shift = width / r;
         let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
@@ -481,5 +499,45 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("divide"), "{e}");
+    }
+
+    #[test]
+    fn sizes_above_their_limits_are_refused_before_allocating() {
+        let img = vec![0.5f32; 32 * 4];
+        let images: Vec<&[f32]> = vec![img.as_slice(); 4];
+        let build = |params: OmniMapParams| {
+            OmniMap::build([0.0, 0.0], 0.5, 2, 2, 32, 4, &images, params)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = build(OmniMapParams {
+            rotations: 32,
+            d: 1_000_000_000,
+            pca_locations: 2,
+            seed: 0,
+        });
+        assert!(e.contains("OMNI_MAX_FEATURES"), "{e}");
+        let many = vec![img.as_slice(); 100];
+        let e = OmniMap::build(
+            [0.0, 0.0],
+            0.5,
+            10,
+            10,
+            32,
+            4,
+            &many,
+            OmniMapParams {
+                rotations: 32,
+                d: 5,
+                pca_locations: 100,
+                seed: 0,
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("3200 images, more than the limit of 2000 (MAX_PCA_SAMPLES)"),
+            "{e}"
+        );
     }
 }

@@ -31,14 +31,11 @@ pub fn weighted_mean_covariance(
     (Pose2::new(mx, my, mt), cov)
 }
 
-/// Checks a particle filter's `particles` count: within [1, 1 000 000].
+/// Checks a particle filter's `particles` count: at least 1 and at most
+/// [`MAX_PARTICLES`](crate::limits::MAX_PARTICLES).
 pub fn validate_particle_count(particles: usize) -> Result<(), String> {
-    if !(1..=1_000_000).contains(&particles) {
-        return Err(format!(
-            "particles must be within [1, 1000000], got {particles}"
-        ));
-    }
-    Ok(())
+    use crate::limits::{check_count_min1, MAX_PARTICLES};
+    check_count_min1("particles", particles, MAX_PARTICLES, "MAX_PARTICLES")
 }
 
 /// Adds one odometry step to the motion not yet applied to the particles, and advances the
@@ -290,5 +287,20 @@ mod tests {
         assert_eq!(e.stamp, 3.0);
         // Heading uncertainty now moves x: d x / d θ = -1 for a 1 m step facing +y.
         assert!((e.covariance[(0, 0)] - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn particle_counts_name_the_limit() {
+        assert!(validate_particle_count(crate::limits::MAX_PARTICLES).is_ok());
+        assert_eq!(
+            validate_particle_count(usize::MAX).unwrap_err(),
+            format!(
+                "particles: {} is more than the limit of 1000000 (MAX_PARTICLES)",
+                usize::MAX
+            )
+        );
+        assert!(validate_particle_count(0)
+            .unwrap_err()
+            .starts_with("particles"));
     }
 }

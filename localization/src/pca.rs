@@ -6,6 +6,7 @@
 //! covariance XXᵀ, and map its eigenvectors back with u = X v / ‖X v‖.
 
 use crate::error::LocalizationError;
+use crate::limits::MAX_PCA_SAMPLES;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 /// How the principal components are computed.
@@ -71,6 +72,14 @@ impl Pca {
     /// values: NaN or infinite entries are rejected with the vector and index named).
     pub fn fit(vectors: &[&[f32]], d: usize, method: PcaMethod) -> Result<Pca, LocalizationError> {
         let dim = check_training_set("pca", vectors, d)?;
+        // Both methods cost N² memory and N³ time (the Gram matrix, or the SVD's V).
+        if vectors.len() > MAX_PCA_SAMPLES {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "pca: {} training vectors are more than the limit of {MAX_PCA_SAMPLES} \
+                 (MAX_PCA_SAMPLES)",
+                vectors.len()
+            )));
+        }
         for (i, v) in vectors.iter().enumerate() {
             if let Some(p) = v.iter().position(|x| !x.is_finite()) {
                 return Err(LocalizationError::InvalidParameter(format!(
@@ -305,5 +314,20 @@ pub(crate) mod tests {
         .unwrap();
         assert!(pca.project(&b).is_err());
         assert!(pca.project(&c).is_err());
+    }
+
+    #[test]
+    fn more_training_vectors_than_the_limit_are_refused_before_fitting() {
+        let n = crate::limits::MAX_PCA_SAMPLES + 1;
+        let data: Vec<Vec<f32>> = (0..n).map(|i| vec![i as f32, 1.0]).collect();
+        let refs: Vec<&[f32]> = data.iter().map(|v| v.as_slice()).collect();
+        let e = Pca::fit(&refs, 1, PcaMethod::Snapshot)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("2001 training vectors are more than the limit of 2000 (MAX_PCA_SAMPLES)"),
+            "{e}"
+        );
+        assert!(Pca::fit(&refs[..n - 1], 1, PcaMethod::Snapshot).is_ok());
     }
 }

@@ -18,6 +18,10 @@ use crate::gp::{
     bin_samples, bin_values, fit_hyperparameters, HyperOptions, LocalGp, LocalPosterior, SeKernel,
     SpatialIndex,
 };
+use crate::limits::{
+    check_count, Lattice, GP_MAX_BLOCKS, GP_MAX_BLOCK_SIZE, GP_MAX_ITERATIONS,
+    WIFI_GRAPH_MAX_VALUES,
+};
 use atrium_robots::WifiScan;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -97,7 +101,48 @@ impl WifiGraphParams {
         if self.hyper.blocks == 0 || self.hyper.block_size < 3 {
             return Err("hyper.blocks must be >= 1 and hyper.block_size >= 3".into());
         }
+        check_count(
+            "hyper.blocks",
+            self.hyper.blocks,
+            GP_MAX_BLOCKS,
+            "GP_MAX_BLOCKS",
+        )?;
+        check_count(
+            "hyper.block_size",
+            self.hyper.block_size,
+            GP_MAX_BLOCK_SIZE,
+            "GP_MAX_BLOCK_SIZE",
+        )?;
+        check_count(
+            "hyper.iterations",
+            self.hyper.iterations,
+            GP_MAX_ITERATIONS,
+            "GP_MAX_ITERATIONS",
+        )?;
         Ok(())
+    }
+
+    /// Checks the size of the graph learnt over the rectangle `lo`–`hi` for `access_points`
+    /// access points against [`WIFI_GRAPH_MAX_VALUES`], before anything is learnt or
+    /// allocated; the message gives the nodes it would need and the finest `node_spacing`
+    /// that fits.
+    pub fn check_graph_size(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        access_points: usize,
+    ) -> Result<(), String> {
+        let aps = access_points.max(1) as u64;
+        // The lattice has 3 nodes more than the extent needs on each axis (see `learn`).
+        Lattice {
+            field: "node_spacing",
+            what: &format!("area ({aps} access points)"),
+            unit: "nodes",
+            extra: 3.0,
+            limit: WIFI_GRAPH_MAX_VALUES / aps,
+            limit_name: "WIFI_GRAPH_MAX_VALUES / access points",
+        }
+        .check(self.node_spacing, [hi[0] - lo[0], hi[1] - lo[1]])
     }
 
     fn missing(&self) -> f64 {
@@ -207,6 +252,9 @@ impl WifiGraph {
             ));
         }
         let n_ap = names.len();
+        params
+            .check_graph_size(lo, hi, n_ap)
+            .map_err(LocalizationError::InvalidParameter)?;
         let missing = params.missing();
         // values[a][s]: the reading of AP a in sample s (missing → `missing`).
         let mut values = vec![vec![missing; samples.len()]; n_ap];
@@ -379,8 +427,16 @@ impl WifiGraph {
         if self.aps.is_empty() {
             return Err("aps: no access point".into());
         }
-        let n = self.width * self.height;
-        let want = n * self.aps.len();
+        let n = self.width.checked_mul(self.height);
+        let want = n.and_then(|n| n.checked_mul(self.aps.len()));
+        let (Some(n), Some(want)) = (n, want) else {
+            return Err(format!(
+                "width, height: {} × {} nodes × {} access points overflow",
+                self.width,
+                self.height,
+                self.aps.len()
+            ));
+        };
         if self.mean.len() != want || self.var.len() != want || self.free.len() != n {
             return Err(format!(
                 "mean, var, free: expected {want}, {want} and {n} values, got {}, {} and {}",
@@ -597,5 +653,59 @@ mod tests {
         std::fs::write(&path, "{\"format\": 3}").unwrap();
         assert!(WifiGraph::load(&path).unwrap_err().contains("g.json"));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn graph_sizes_above_the_limit_are_refused_before_learning() {
+        let p = |spacing: f64| WifiGraphParams {
+            node_spacing: spacing,
+            ..WifiGraphParams::default()
+        };
+        let (lo, hi) = ([0.0, 0.0], [60.0, 40.0]);
+        let e = p(1e-6).check_graph_size(lo, hi, 10).unwrap_err();
+        assert!(
+            e.starts_with("node_spacing: 0.000001 m over the 60 m × 40 m area (10 access points)")
+                && e.contains("nodes, more than the limit of 1000000"),
+            "{e}"
+        );
+        // The spacing the message suggests fits; a little finer does not.
+        let finest: f64 = e
+            .rsplit_once("at least ")
+            .unwrap()
+            .1
+            .trim_end_matches(" m")
+            .parse()
+            .unwrap();
+        assert!(
+            p(finest).check_graph_size(lo, hi, 10).is_ok(),
+            "{e} {:?}",
+            p(finest).check_graph_size(lo, hi, 10)
+        );
+        assert!(p(0.98 * finest).check_graph_size(lo, hi, 10).is_err());
+        // Learning refuses it too, before allocating the lattice.
+        let scan = WifiScan {
+            stamp: 0.0,
+            sensor: "wifi".into(),
+            readings: vec![WifiReading {
+                ap: "a".into(),
+                channel: 6,
+                rssi_dbm: -50.0,
+            }],
+        };
+        let e = WifiGraph::learn(&[([1.0, 1.0], &scan)], lo, hi, &p(1e-6), &|_| true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("WIFI_GRAPH_MAX_VALUES"), "{e}");
+        let hyper = WifiGraphParams {
+            hyper: HyperOptions {
+                block_size: usize::MAX,
+                ..HyperOptions::default()
+            },
+            ..WifiGraphParams::default()
+        };
+        assert!(hyper
+            .validate()
+            .unwrap_err()
+            .contains("hyper.block_size: 18446744073709551615 is more than the limit of 1000"));
     }
 }

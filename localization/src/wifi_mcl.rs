@@ -113,12 +113,12 @@ impl Default for WifiMclParams {
 impl WifiMclParams {
     pub fn validate(&self) -> Result<(), String> {
         crate::particles::validate_particle_count(self.particles)?;
-        if !(1..=10_000_000).contains(&self.global_particles) {
-            return Err(format!(
-                "global_particles must be within [1, 10000000], got {}",
-                self.global_particles
-            ));
-        }
+        crate::limits::check_count_min1(
+            "global_particles",
+            self.global_particles,
+            crate::limits::MAX_GLOBAL_PARTICLES,
+            "MAX_GLOBAL_PARTICLES",
+        )?;
         crate::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
@@ -882,5 +882,20 @@ mod tests {
         ] {
             assert!((normal_cdf(z) - p).abs() < 1e-7, "{z}");
         }
+    }
+
+    #[test]
+    fn global_particles_above_the_limit_are_refused() {
+        let p = |n: usize| WifiMclParams {
+            global_particles: n,
+            ..WifiMclParams::default()
+        };
+        assert!(p(crate::limits::MAX_GLOBAL_PARTICLES).validate().is_ok());
+        assert_eq!(
+            p(crate::limits::MAX_GLOBAL_PARTICLES + 1)
+                .validate()
+                .unwrap_err(),
+            "global_particles: 10000001 is more than the limit of 10000000 (MAX_GLOBAL_PARTICLES)"
+        );
     }
 }

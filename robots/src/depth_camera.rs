@@ -220,6 +220,7 @@ impl DepthCameraSpec {
         if self.height == 0 {
             return Err("height: must be at least 1 pixel (got 0)".into());
         }
+        crate::sensors::check_image_size("width", self.width, self.height)?;
         if self.decimation == 0 {
             return Err("decimation: must be at least 1 (got 0)".into());
         }

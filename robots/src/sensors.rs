@@ -32,6 +32,28 @@ const ODOMETRY_FIELDS: [&str; 4] = [
 
 const PRESETS: [&str; 2] = ["sick_lms200", "hokuyo_urg04lx"];
 
+/// Beams of a laser: real ones have at most a few thousand (the Hokuyo URG-04LX 683, the SICK
+/// LMS200 181), so 100,000 is generous; every beam is a ray cast per scan and a range kept.
+pub const MAX_LASER_BEAMS: usize = 100_000;
+
+/// Pixels of one camera image (width × height after decimation): a Kinect has 307,200, so
+/// 16 million is generous; every pixel is a ray cast per frame and an f32 kept. Sensor tables
+/// check their sizes with [`check_image_size`].
+pub const MAX_IMAGE_PIXELS: u64 = 16_000_000;
+
+/// Checks an image size against [`MAX_IMAGE_PIXELS`] (the product in u128, so it cannot
+/// overflow); the message starts with `field` (e.g. `width`).
+pub fn check_image_size(field: &str, width: usize, height: usize) -> Result<(), String> {
+    let pixels = width as u128 * height as u128;
+    if pixels > MAX_IMAGE_PIXELS as u128 {
+        return Err(format!(
+            "{field}: a {width} × {height} image is {pixels} pixels, more than the limit of \
+             {MAX_IMAGE_PIXELS} (MAX_IMAGE_PIXELS)"
+        ));
+    }
+    Ok(())
+}
+
 fn type_name(v: &toml::Value) -> &'static str {
     match v {
         toml::Value::String(_) => "a string",
@@ -304,6 +326,12 @@ impl LaserSpec {
         if self.beams < 1 {
             return Err(format!("beams: must be at least 1 (got {})", self.beams));
         }
+        if self.beams > MAX_LASER_BEAMS {
+            return Err(format!(
+                "beams: {} is more than the limit of {MAX_LASER_BEAMS} (MAX_LASER_BEAMS)",
+                self.beams
+            ));
+        }
         if !(self.fov > 0.0 && self.fov <= std::f64::consts::TAU) {
             return Err(format!("fov: must be in (0, 2π] rad (got {})", self.fov));
         }
@@ -570,5 +598,41 @@ impl RobotSensors {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn laser(extra: &str) -> Result<LaserSpec, String> {
+        let table: toml::Table =
+            format!("name = \"laser\"\nmount = \"laser\"\npreset = \"sick_lms200\"\n{extra}")
+                .parse()
+                .unwrap();
+        LaserSpec::from_table(&table, "sensors.laser")
+    }
+
+    #[test]
+    fn beams_above_the_limit_are_refused_with_field_and_limit() {
+        assert_eq!(
+            laser("beams = 100000000").unwrap_err(),
+            "sensors.laser.beams: 100000000 is more than the limit of 100000 (MAX_LASER_BEAMS)"
+        );
+        assert!(laser("beams = 1000000000000")
+            .unwrap_err()
+            .contains("MAX_LASER_BEAMS"));
+        assert_eq!(laser("beams = 100000").unwrap().beams, MAX_LASER_BEAMS);
+    }
+
+    #[test]
+    fn image_sizes_are_checked_without_overflow() {
+        assert!(check_image_size("width", 4000, 4000).is_ok());
+        assert_eq!(
+            check_image_size("width", 4001, 4000).unwrap_err(),
+            "width: a 4001 × 4000 image is 16004000 pixels, more than the limit of 16000000 \
+             (MAX_IMAGE_PIXELS)"
+        );
+        assert!(check_image_size("height", usize::MAX, usize::MAX).is_err());
     }
 }

@@ -212,6 +212,13 @@ pub fn parse(
         if let Some(v) = t.max_range {
             camera.max_range = v;
         }
+        // Checked before any image buffer is sized from it.
+        if let Err(m) =
+            atrium_robots::sensors::check_image_size("width", camera.width, camera.height)
+        {
+            let (key, why) = m.split_once(": ").unwrap_or(("width", &m));
+            return Err(ScenarioError::field(file, format!("{field}.{key}"), why));
+        }
         let rate_hz = t.rate_hz.unwrap_or(DEFAULT_RATE_HZ);
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(ScenarioError::field(

@@ -309,3 +309,16 @@ fn bad_parameters_are_rejected() {
     assert!(p.validate().unwrap_err().contains("survey_heading"));
     assert!(train(&[], &[], &[], &LandmarkFilterParams::default()).is_err());
 }
+
+#[test]
+fn training_runs_above_the_limit_are_refused() {
+    let p = |runs: usize| LandmarkFilterParams {
+        training_runs: runs,
+        ..LandmarkFilterParams::default()
+    };
+    assert!(p(crate::limits::MAX_TRAINING_RUNS).validate().is_ok());
+    assert_eq!(
+        p(1_000_000_000_000).validate().unwrap_err(),
+        "training_runs: 1000000000000 is more than the limit of 100 (MAX_TRAINING_RUNS)"
+    );
+}

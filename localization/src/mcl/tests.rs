@@ -606,3 +606,60 @@ fn same_seed_same_run() {
     };
     assert_eq!(run(), run());
 }
+
+#[test]
+fn sizes_above_their_limits_are_refused_before_anything_is_built() {
+    let grid = asymmetric_room();
+    let global = || InitialBelief::Global { regions: vec![] };
+    // A resolution of 1 µm over the 14 m × 10 m room: 1.4e14 cells, refused at once.
+    let p = MclParams {
+        grid_resolution: 1e-6,
+        ..MclParams::default()
+    };
+    let e = Mcl::new("mcl", p, &grid, global(), 0)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("grid_resolution: 0.000001 m over the 14 m × 10 m map is 140000000000000 cells")
+            && e.contains("more than the limit of 50000000 (MCL_MAX_GRID_CELLS)")
+            && e.contains("use a grid_resolution of at least 0.00168 m"),
+        "{e}"
+    );
+    // The finest resolution the message suggests fits; a little finer does not.
+    let fits = |r: f64| {
+        MclParams {
+            grid_resolution: r,
+            ..MclParams::default()
+        }
+        .check_field_size([14.0, 10.0])
+    };
+    assert!(fits(0.00168).is_ok());
+    assert!(fits(0.00167).is_err());
+    assert!(fits(f64::NAN).unwrap_err().contains("grid_resolution"));
+
+    let beams = |n: usize| {
+        MclParams {
+            max_beams: n,
+            ..MclParams::default()
+        }
+        .validate()
+    };
+    assert!(beams(crate::limits::MAX_BEAMS).is_ok());
+    assert_eq!(
+        beams(1_000_000_000_000).unwrap_err(),
+        "max_beams: 1000000000000 is more than the limit of 100000 (MAX_BEAMS)"
+    );
+    let particles = |n: usize| {
+        MclParams {
+            max_particles: n,
+            ..MclParams::default()
+        }
+        .validate()
+    };
+    assert!(particles(crate::limits::MAX_GLOBAL_PARTICLES).is_ok());
+    let e = particles(crate::limits::MAX_GLOBAL_PARTICLES + 1).unwrap_err();
+    assert!(
+        e.contains("max_particles") && e.contains("MAX_GLOBAL_PARTICLES"),
+        "{e}"
+    );
+}

@@ -31,6 +31,7 @@ use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};
 use atrium_localization::appearance_apf::{
     ApfParams, AppearanceApf, AppearanceModel, AppearanceTraining,
 };
+use atrium_localization::limits::{check_count, fmt_count, MAX_PCA_SAMPLES, TRAINING_MAX_PIXELS};
 use atrium_localization::mcl::InitialBelief as FilterBelief;
 use atrium_localization::Localizer;
 use atrium_sim::camera::{CameraSpec, Shader};
@@ -155,12 +156,42 @@ pub fn build(
         pca_samples: int("pca_samples", 100)?,
         seed: int("training_seed", 1)? as u64,
     };
+    // Sizes, before anything is rendered: the PCA's N and d, and every training image held.
+    for (key, v) in [("pca_samples", training.pca_samples), ("d", training.d)] {
+        check_count(key, v, MAX_PCA_SAMPLES, "MAX_PCA_SAMPLES").map_err(|m| {
+            err(
+                key,
+                m.split_once(": ").map_or(m.clone(), |x| x.1.to_string()),
+            )
+        })?;
+    }
+    let (width, height) = match &source {
+        Source::Stereo(s) => (s.camera.width, s.camera.height),
+        Source::Camera(c) => (c.width, c.height),
+    };
+    let images = if disparity { 2.0 } else { 1.0 };
+    let pixels = grid.pose_count() as f64 * width as f64 * height as f64 * images;
+    if pixels > TRAINING_MAX_PIXELS as f64 {
+        return Err(err(
+            "training",
+            format!(
+                "{} training poses × {width} × {height} pixels{} are {} values, more than the \
+                 limit of {TRAINING_MAX_PIXELS} (TRAINING_MAX_PIXELS); raise step or \
+                 rotation_step_deg, or use a smaller camera",
+                grid.pose_count(),
+                if disparity { " × 2 (disparity)" } else { "" },
+                fmt_count(pixels)
+            ),
+        ));
+    }
     let mut params: ApfParams = toml::Value::Table(table)
         .try_into()
         .map_err(|e: toml::de::Error| err("", e.message().to_string()))?;
     params.intensity_sensor = Some(sensor.clone());
     params.disparity_sensor = Some(sensor.clone());
-    params.validate().map_err(|m| err("", m))?;
+    params
+        .validate()
+        .map_err(|m| crate::builtins::param_error(file, &field, &params, &m))?;
 
     let key = format!(
         "appearance_model\n{}\n{}\n{:?}\n{:?}\n{}\n{disparity}\n{:?}",
@@ -295,6 +326,46 @@ kind = "appearance"
         let e = build_err(STEREO, &format!("d = 200\n{GRID}"));
         assert!(
             e.contains("localizers[apf].training") && e.contains("d < N"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn training_sizes_above_their_limits_are_refused_before_rendering() {
+        let e = build_err(STEREO, &format!("pca_samples = 2001\n{GRID}"));
+        assert!(
+            e.contains("localizers[apf].pca_samples: 2001 is more than the limit of 2000 (MAX_PCA_SAMPLES)"),
+            "{e}"
+        );
+        let e = build_err(STEREO, &format!("d = 1000000000000\n{GRID}"));
+        assert!(
+            e.contains("localizers[apf].d: 1000000000000 is more than the limit"),
+            "{e}"
+        );
+        // 9 × 5 m at 2 cm and 10°: 451 × 251 nodes × 36 rotations.
+        let e = build_err(
+            STEREO,
+            "training = { area = [1.0, 1.0, 10.0, 6.0], step = 0.02 }",
+        );
+        assert!(
+            e.contains("localizers[apf].training: step 0.02 m and rotation_step_deg 10 over the 9 m × 5 m area give 4075236 training poses, more than the limit of 200000 (TRAINING_MAX_POSES)"),
+            "{e}"
+        );
+        // 91 × 51 nodes × 25 rotations = 116,025 poses (within the limit) of 48 × 36 stereo
+        // pairs: 4e8 values.
+        let e = build_err(
+            STEREO,
+            "training = { area = [1.0, 1.0, 10.0, 6.0], step = 0.1, rotation_step_deg = 14.4 }",
+        );
+        assert!(
+            e.contains(
+                "localizers[apf].training: 116025 training poses × 48 × 36 pixels × 2 (disparity)"
+            ) && e.contains("more than the limit of 250000000 (TRAINING_MAX_PIXELS)"),
+            "{e}"
+        );
+        let e = build_err(STEREO, &format!("particles = 300000\n{GRID}"));
+        assert!(
+            e.contains("localizers[apf].particles: 300000 is more than the limit of 200000 (APF_MAX_PARTICLES)"),
             "{e}"
         );
     }

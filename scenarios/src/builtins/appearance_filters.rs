@@ -9,6 +9,7 @@
 
 use atrium_localization::appearance_apf::{AppearanceModel, AppearanceTraining};
 use atrium_localization::ceiling_mcl::CeilingMap;
+use atrium_localization::limits::{fmt_count, fmt_length, fmt_value, TRAINING_MAX_POSES};
 use atrium_localization::omni_map::{OmniMap, OmniMapParams};
 use atrium_robots::{normalize_angle, Pose2};
 use atrium_sim::camera::{floor_pose, Camera, CameraSpec, CeilingCamera, OmniCamera, Shader};
@@ -62,13 +63,30 @@ impl TrainingGrid {
                 self.rotation_step_deg
             ));
         }
-        let n = self.nodes().0 * self.nodes().1 * self.rotations();
-        if n > 200_000 {
+        // In f64: a tiny step must not overflow the count before it is compared.
+        let side = |e: f64| (e / self.step + 1e-9).floor() + 1.0;
+        let rotations = (360.0 / self.rotation_step_deg).round().max(1.0);
+        let n = side(x1 - x0) * side(y1 - y0) * rotations;
+        if n > TRAINING_MAX_POSES as f64 {
             return Err(format!(
-                "{n} training poses: more than 200000 (raise step or rotation_step_deg)"
+                "step {} m and rotation_step_deg {} over the {} m × {} m area give {} \
+                 training poses, more than the limit of {TRAINING_MAX_POSES} \
+                 (TRAINING_MAX_POSES); raise step or rotation_step_deg",
+                fmt_value(self.step),
+                self.rotation_step_deg,
+                fmt_length(x1 - x0),
+                fmt_length(y1 - y0),
+                fmt_count(n)
             ));
         }
         Ok(())
+    }
+
+    /// Training poses: nodes × rotations (after [`TrainingGrid::validate`], at most
+    /// [`TRAINING_MAX_POSES`]).
+    pub fn pose_count(&self) -> usize {
+        let (nx, ny) = self.nodes();
+        nx.saturating_mul(ny).saturating_mul(self.rotations())
     }
 
     /// Grid nodes along x and y.
@@ -616,5 +634,25 @@ mod tests {
         assert_eq!(landed, tests.len());
         // Bad input: the wrong panorama size.
         assert!(map.lookup(&img[..100]).is_err());
+    }
+
+    #[test]
+    fn a_tiny_training_step_is_refused_without_overflow() {
+        let grid = |step: f64, area: [f64; 4]| TrainingGrid {
+            area,
+            step,
+            rotation_step_deg: 360.0,
+        };
+        let e = grid(1e-300, [0.0, 0.0, 10.0, 10.0]).validate().unwrap_err();
+        assert!(
+            e.starts_with("step 1e-300 m and rotation_step_deg 360 over the 10 m × 10 m area give")
+                && e.contains("more than the limit of 200000 (TRAINING_MAX_POSES)"),
+            "{e}"
+        );
+        assert!(grid(1.0, [0.0, 0.0, 1e300, 1.0]).validate().is_err());
+        // 447 × 447 = 199,809 nodes fit; 448 × 448 do not.
+        assert!(grid(1.0, [0.0, 0.0, 446.0, 446.0]).validate().is_ok());
+        assert!(grid(1.0, [0.0, 0.0, 447.0, 447.0]).validate().is_err());
+        assert_eq!(grid(1.0, [0.0, 0.0, 446.0, 446.0]).pose_count(), 199_809);
     }
 }

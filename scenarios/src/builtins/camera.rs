@@ -44,6 +44,9 @@ use crate::builtins::appearance_filters::{
 use crate::error::ScenarioError;
 use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};
 use atrium_localization::ceiling_mcl::{CeilingMap, CeilingMcl, CeilingMclParams};
+use atrium_localization::limits::{
+    fmt_count, MAX_PCA_SAMPLES, OMNI_MAX_FEATURES, TRAINING_MAX_PIXELS,
+};
 use atrium_localization::mcl::InitialBelief as FilterBelief;
 use atrium_localization::omni_map::{OmniMap, OmniMapParams};
 use atrium_localization::omni_mcl::{OmniMcl, OmniMclParams};
@@ -197,7 +200,9 @@ pub fn build_ceiling_mcl(
     let training_seed = t.int("training_seed", 1)? as u64;
     let mut params: CeilingMclParams = t.params()?;
     params.sensor = sensor.clone();
-    params.validate().map_err(|m| t.err("", m))?;
+    params
+        .validate()
+        .map_err(|m| crate::builtins::param_error(&scenario.file, &t.field, &params, &m))?;
     // Without lights of the training kind the ceiling is dark everywhere: no map.
     let kind = lighting.lights();
     if !scenario
@@ -294,7 +299,49 @@ pub fn build_omni(
             format!("the grid has {nx} × {ny} nodes: need at least 2 × 2 to interpolate"),
         ));
     }
-    let n_images = map_params.pca_locations.clamp(1, nx * ny) * r;
+    let n_images = map_params
+        .pca_locations
+        .clamp(1, nx.saturating_mul(ny))
+        .saturating_mul(r);
+    if n_images > MAX_PCA_SAMPLES {
+        return Err(t.err(
+            "pca_locations",
+            format!(
+                "{} locations × {r} rotations are {n_images} images for the eigenimages, more \
+                 than the limit of {MAX_PCA_SAMPLES} (MAX_PCA_SAMPLES)",
+                map_params.pca_locations.clamp(1, nx.saturating_mul(ny))
+            ),
+        ));
+    }
+    // The map's features and the training panoramas, before anything is rendered.
+    let nodes = nx as f64 * ny as f64;
+    let features = nodes * r as f64 * map_params.d as f64;
+    if features > OMNI_MAX_FEATURES as f64 {
+        return Err(t.err(
+            "d",
+            format!(
+                "{nx} × {ny} nodes × {r} rotations × d = {} are {} features, more than the \
+                 limit of {OMNI_MAX_FEATURES} (OMNI_MAX_FEATURES); lower d or rotations, or \
+                 raise the training step",
+                map_params.d,
+                fmt_count(features)
+            ),
+        ));
+    }
+    let pixels = nodes * camera.width as f64 * camera.height as f64;
+    if pixels > TRAINING_MAX_PIXELS as f64 {
+        return Err(t.err(
+            "training",
+            format!(
+                "{nx} × {ny} nodes × {} × {} pixels are {} values, more than the limit of \
+                 {TRAINING_MAX_PIXELS} (TRAINING_MAX_PIXELS); raise the step or use a smaller \
+                 camera",
+                camera.width,
+                camera.height,
+                fmt_count(pixels)
+            ),
+        ));
+    }
     if map_params.d == 0 || map_params.d >= n_images {
         return Err(t.err(
             "d",
@@ -306,7 +353,9 @@ pub fn build_omni(
     }
     let mut params: OmniMclParams = t.params()?;
     params.sensor = sensor.clone();
-    params.validate().map_err(|m| t.err("", m))?;
+    params
+        .validate()
+        .map_err(|m| crate::builtins::param_error(&scenario.file, &t.field, &params, &m))?;
     let key = format!(
         "omni_map\n{}\n{}\n{grid:?}\n{map_params:?}\n{camera:?}\n{}",
         serde_json::to_string(&scenario.world).unwrap_or_default(),
@@ -471,5 +520,40 @@ kind = "{kind}"
             &format!("rotations = 12\ntraining_lighting = \"disco\"\n{GRID}"),
         );
         assert!(e.contains("localizers[x].training_lighting"), "{e}");
+    }
+
+    #[test]
+    fn omni_sizes_above_their_limits_are_refused_before_rendering() {
+        let lab =
+            "training = { area = [1.0, 1.0, 10.0, 6.0], step = 0.5, rotation_step_deg = 360 }";
+        let e = build_err(
+            OMNI,
+            "omni",
+            &format!("pca_locations = 100\nrotations = 60\n{lab}"),
+        );
+        assert!(
+            e.contains("localizers[x].pca_locations: 100 locations × 60 rotations are 6000 images for the eigenimages, more than the limit of 2000 (MAX_PCA_SAMPLES)"),
+            "{e}"
+        );
+        let fine =
+            "training = { area = [1.0, 1.0, 10.0, 6.0], step = 0.05, rotation_step_deg = 360 }";
+        let e = build_err(
+            OMNI,
+            "omni",
+            &format!("rotations = 60\nd = 1000\npca_locations = 30\n{fine}"),
+        );
+        assert!(
+            e.contains("localizers[x].d: 181 × 101 nodes × 60 rotations × d = 1000 are 1096860000 features, more than the limit of 50000000 (OMNI_MAX_FEATURES)"),
+            "{e}"
+        );
+        let e = build_err(
+            OMNI,
+            "omni",
+            &format!("rotations = 60\nparticles = 2000000\n{GRID}"),
+        );
+        assert!(
+            e.contains("localizers[x].particles: 2000000 is more than the limit of 1000000 (MAX_PARTICLES)"),
+            "{e}"
+        );
     }
 }

@@ -2,6 +2,7 @@
 //! `atrium_localization::cgr`) from a scenario's `[[localizers]]` table. Parameters are the
 //! fields of `CgrParams`; FSPF's are an inline table, e.g. `fspf = { eta = 15 }`.
 
+use crate::builtins::{localization_error, param_error};
 use crate::error::ScenarioError;
 use crate::maps::SharedMaps;
 use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};
@@ -36,7 +37,7 @@ pub fn build(
             })?;
     params
         .validate()
-        .map_err(|msg| ScenarioError::field(file, &field, msg))?;
+        .map_err(|msg| param_error(file, &field, &params, &msg))?;
     let sigma = match &scenario.initial_belief {
         InitialBelief::Tracking { sigma } => *sigma,
         InitialBelief::Global { .. } => {
@@ -80,7 +81,7 @@ pub fn build(
     }
     let map = maps.vector_map(scenario);
     let build = if depth { Cgr::depth } else { Cgr::laser };
-    let cgr = build(&spec.name, params, map, scenario.start, sigma, seed)
-        .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
+    let cgr = build(&spec.name, params.clone(), map, scenario.start, sigma, seed)
+        .map_err(|e| localization_error(file, &field, &params, e))?;
     Ok(Box::new(cgr))
 }

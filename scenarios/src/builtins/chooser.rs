@@ -45,6 +45,7 @@ use crate::scenario::Scenario;
 use crate::seeds::derive_seed;
 use atrium_localization::chooser::{Chooser, ReseedParams, Strategy};
 use atrium_localization::error_map::ErrorMap;
+use atrium_localization::limits::{check_count, MAX_LOOKUP_RADIUS_CELLS, MAX_TRAINING_RUNS};
 use atrium_localization::mixture::{log_density_xy, mixture_weights, MixtureGroup, RegionMixture};
 use atrium_localization::{Estimate, Localizer};
 use atrium_robots::Reading;
@@ -336,6 +337,24 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
             Some(_) => Err(err(key, format!("must be an integer >= {min}"))),
         }
     };
+    // A count with an upper limit; the message names the limit's constant.
+    let bounded = |key: &str, default: usize, min: usize, limit: usize, name: &str| {
+        let v = count(key, default, min)?;
+        check_count(key, v, limit, name).map_err(|m| {
+            let (_, why) = m.split_once(": ").unwrap_or(("", &m));
+            err(key, why.to_string())
+        })?;
+        Ok::<usize, ScenarioError>(v)
+    };
+    let training_runs = || {
+        bounded(
+            "training_runs",
+            1,
+            1,
+            MAX_TRAINING_RUNS,
+            "MAX_TRAINING_RUNS",
+        )
+    };
     let text = |key: &str| -> Result<Option<String>, ScenarioError> {
         match p.get(key) {
             None => Ok(None),
@@ -473,7 +492,7 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
     };
 
     let strategy = if fused {
-        let runs = count("training_runs", 1, 1)?;
+        let runs = training_runs()?;
         let floor = float("covariance_floor_m", 0.1)?;
         if !(floor.is_finite() && floor > 0.0) {
             return Err(err(
@@ -523,7 +542,13 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
             "uncertainty" => Strategy::Uncertainty,
             "mismatch" => Strategy::Mismatch,
             "data_driven" => {
-                let radius_cells = count("lookup_radius_cells", 3, 0)?;
+                let radius_cells = bounded(
+                    "lookup_radius_cells",
+                    3,
+                    0,
+                    MAX_LOOKUP_RADIUS_CELLS,
+                    "MAX_LOOKUP_RADIUS_CELLS",
+                )?;
                 let map = match (text("error_map")?, p.contains_key("training")) {
                     (Some(_), true) => {
                         return Err(err(
@@ -551,17 +576,34 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
                         let csv = std::fs::read_to_string(&path).map_err(|e| {
                             err("error_map", format!("cannot read {}: {e}", path.display()))
                         })?;
-                        ErrorMap::from_csv(&csv)
-                            .map_err(|e| err("error_map", format!("{}: {e}", path.display())))?
+                        ErrorMap::from_csv(&csv).map_err(|e| {
+                            err(
+                                "error_map",
+                                format!("{}: line {}: {}", path.display(), e.line, e.message),
+                            )
+                        })?
                     }
                     (None, true) => {
-                        let runs = count("training_runs", 1, 1)?;
+                        let runs = training_runs()?;
                         let res = float("error_map_resolution", 2.0)?;
                         if !(res.is_finite() && res > 0.0) {
                             return Err(err(
                                 "error_map_resolution",
                                 format!("must be finite and > 0, got {res}"),
                             ));
+                        }
+                        // The map's size, from the training scenario's world, before the
+                        // training runs.
+                        if let Some(t) = text("training")? {
+                            if let Ok(s) = Scenario::load(&dir.join(&t)) {
+                                let (min, max) = s.world.bounds();
+                                ErrorMap::check_size(min, max, res, s.localizers.len()).map_err(
+                                    |m| {
+                                        let (_, why) = m.split_once(": ").unwrap_or(("", &m));
+                                        err("error_map_resolution", why.to_string())
+                                    },
+                                )?;
+                            }
                         }
                         let training = training_of(runs)?
                             .ok_or_else(|| err("training", "must be a non-empty string".into()))?;
@@ -770,6 +812,18 @@ graph = "{dir}/missing_graph_is_not_needed_here.json"
                 "must be true or false",
             ),
             (
+                "training_runs_limit",
+                "[[localizers]]\nname = \"c\"\nkind = \"fused\"\nmembers = [\"laser\"]\ntraining = \"t.toml\"\ntraining_runs = 101",
+                "localizers[c].training_runs",
+                "101 is more than the limit of 100 (MAX_TRAINING_RUNS)",
+            ),
+            (
+                "lookup_radius_limit",
+                "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"laser\"]\nerror_map = \"x.csv\"\nlookup_radius_cells = 1000000000",
+                "localizers[c].lookup_radius_cells",
+                "1000000000 is more than the limit of 100 (MAX_LOOKUP_RADIUS_CELLS)",
+            ),
+            (
                 "anchor_gate_without_anchor",
                 "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"uncertainty\"\nmembers = [\"laser\", \"depth\"]\nanchor_gate = true",
                 "localizers[c].anchor_gate",
@@ -829,6 +883,63 @@ graph = "{dir}/missing_graph_is_not_needed_here.json"
             e.contains("localizers[c].error_map: the error map has no localizer named \"wifi\""),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_hostile_error_map_is_refused_naming_the_csv_line_and_field() {
+        let s = scenario_with("", "hostile_csv").unwrap();
+        let dir = s.file.parent().unwrap().to_path_buf();
+        let extra = "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"laser\"]\nerror_map = \"bad.csv\"";
+        let head = "localizer,i,j,x,y,mean_error,samples,sum\n";
+        for (csv, want) in [
+            (
+                format!("# atrium error map: origin_x=NaN origin_y=0 resolution=2 width=30 height=20\n{head}"),
+                "bad.csv: line 1: origin_x: must be finite, got NaN",
+            ),
+            (
+                format!("# atrium error map: origin_x=0 origin_y=0 resolution=inf width=30 height=20\n{head}"),
+                "bad.csv: line 1: resolution: must be finite, got inf",
+            ),
+            (
+                format!("# atrium error map: origin_x=0 origin_y=0 resolution=1e-6 width=60000000 height=40000000\n{head}"),
+                "bad.csv: line 1: width: 60000000 × 40000000 is 2.4e15 cells, more than the limit \
+                 of 50000000 (ERROR_MAP_MAX_VALUES)",
+            ),
+            (
+                format!("# atrium error map: origin_x=0 origin_y=0 resolution=2 width=30 height=20\n{head}laser,30,0,61,1,0.1,1,0.1\n"),
+                "bad.csv: line 3: i: 30 lies outside the declared grid of 30 × 20 cells",
+            ),
+        ] {
+            std::fs::write(dir.join("bad.csv"), csv).unwrap();
+            let e = error_of(extra, "hostile_csv");
+            assert!(e.contains("localizers[c].error_map: ") && e.contains(want), "{e}");
+        }
+    }
+
+    /// A map over the training world at 1 µm is refused from the world's size, before the
+    /// training runs.
+    #[test]
+    fn an_error_map_resolution_over_the_limit_is_refused_before_training() {
+        let s = scenario_with("", "map_resolution").unwrap();
+        let dir = s.file.parent().unwrap().to_path_buf();
+        // The training scenario: a dead-reckoning run on the campus (never run here).
+        let root = env!("CARGO_MANIFEST_DIR");
+        std::fs::write(
+            dir.join("t.toml"),
+            format!(
+                "name = \"t\"\nworld = \"{root}/../worlds/campus.toml\"\nrobot = \"{root}/../robots/urdf/pioneer3dx.urdf\"\nduration_s = 1.0\n[start]\npose = [20.0, 20.0, 0.0]\n[route]\nwaypoints = [[25.0, 20.0]]\n[[localizers]]\nname = \"laser\"\nkind = \"dead_reckoning\"\n"
+            ),
+        )
+        .unwrap();
+        let extra = "[[localizers]]\nname = \"c\"\nkind = \"chooser\"\nstrategy = \"data_driven\"\nmembers = [\"laser\"]\ntraining = \"t.toml\"\nerror_map_resolution = 1e-6";
+        let started = std::time::Instant::now();
+        let e = error_of(extra, "map_resolution");
+        assert!(
+            e.contains("localizers[c].error_map_resolution: 0.000001 m over the 60.3 m × 40.3 m area (1 layer)")
+                && e.contains("ERROR_MAP_MAX_VALUES"),
+            "{e}"
+        );
+        assert!(started.elapsed().as_secs_f64() < 5.0, "it ran the training");
     }
 
     fn chooser(l: &mut dyn Localizer) -> &Chooser {

@@ -17,7 +17,9 @@ use crate::scenario::InitialBelief;
 use atrium_localization::dead_reckoning::DeadReckoning;
 use atrium_localization::ekf_slam::{EkfSlam, EkfSlamParams};
 use atrium_localization::mcl::{InitialBelief as MclBelief, Mcl, MclParams};
-use atrium_localization::Localizer;
+use atrium_localization::{LocalizationError, Localizer};
+use serde::Serialize;
+use std::path::Path;
 
 type Built = Result<Box<dyn Localizer>, ScenarioError>;
 type Factory = fn(&mut BuildContext) -> Built;
@@ -68,19 +70,114 @@ fn dead_reckoning(ctx: &mut BuildContext) -> Built {
     if let Some(k) = ctx.spec.params.keys().next() {
         return Err(ctx.error(k, "dead_reckoning takes no parameters"));
     }
-    Ok(Box::new(DeadReckoning::new(
-        &ctx.spec.name,
-        ctx.scenario.start,
-    )))
+    let start = dead_reckoning_start(ctx.scenario, ctx.seed());
+    Ok(Box::new(DeadReckoning::new(&ctx.spec.name, start)))
+}
+
+/// Where dead reckoning starts: what the other localizers are told, no more. Tracking: the
+/// initial belief's mean (the start). Global: one pose drawn uniformly from the belief's
+/// free space with a uniform heading, so a baseline never gets a global start for free.
+fn dead_reckoning_start(scenario: &crate::Scenario, seed: u64) -> atrium_robots::Pose2 {
+    use rand::{Rng, SeedableRng};
+    let polygons = match &scenario.initial_belief {
+        InitialBelief::Tracking { .. } => return scenario.start,
+        InitialBelief::Global { polygons } => polygons,
+    };
+    let (lo, hi) = if polygons.is_empty() {
+        scenario.world.bounds()
+    } else {
+        let points = polygons.iter().flatten();
+        let lo = points
+            .clone()
+            .fold([f64::MAX; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]);
+        let hi = points.fold([f64::MIN; 2], |m, p| [m[0].max(p[0]), m[1].max(p[1])]);
+        (lo, hi)
+    };
+    let inside = |p: [f64; 2]| {
+        polygons.is_empty()
+            || polygons
+                .iter()
+                .any(|poly| atrium_worlds::geometry::point_in_polygon(p, poly))
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    // Rejection sampling: the belief's regions fill a good part of their bounding box, so
+    // this ends after a few draws; the start is the fallback for a belief with no free space.
+    for _ in 0..100_000 {
+        let p = [
+            rng.random_range(lo[0]..=hi[0]),
+            rng.random_range(lo[1]..=hi[1]),
+        ];
+        if inside(p) && scenario.world.is_free(p, 0.3) {
+            let theta = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+            return atrium_robots::Pose2::new(p[0], p[1], theta);
+        }
+    }
+    scenario.start
+}
+
+/// The field a parameter check's message starts with, when it is one of `params`' fields:
+/// `validate` messages begin with the field (`max_beams: ...`, `alpha[2] must ...`,
+/// `fspf.eta must ...`). Returns the field path and the rest of the message.
+pub(crate) fn split_field<'m, P: Serialize>(
+    params: &P,
+    msg: &'m str,
+) -> Option<(&'m str, &'m str)> {
+    let end = msg.find([' ', ':'])?;
+    let (path, rest) = msg.split_at(end);
+    let base = path.split(['[', '.']).next().unwrap_or(path);
+    let fields = serde_json::to_value(params).ok()?;
+    fields.as_object()?.contains_key(base).then(|| {
+        let rest = rest.strip_prefix(':').unwrap_or(rest).trim_start();
+        (path, rest)
+    })
+}
+
+/// A parameter check's message as an error at `localizers[NAME].FIELD` of `file` (`prefix` is
+/// `localizers[NAME]`), or at the table itself when the message does not start with a field
+/// of `params`.
+pub(crate) fn param_error<P: Serialize>(
+    file: &Path,
+    prefix: &str,
+    params: &P,
+    msg: &str,
+) -> ScenarioError {
+    match split_field(params, msg) {
+        Some((field, rest)) => ScenarioError::field(file, format!("{prefix}.{field}"), rest),
+        None => ScenarioError::field(file, prefix, msg),
+    }
+}
+
+/// [`param_error`] for a localization error: a parameter's message names its field.
+pub(crate) fn localization_error<P: Serialize>(
+    file: &Path,
+    prefix: &str,
+    params: &P,
+    e: LocalizationError,
+) -> ScenarioError {
+    match e {
+        LocalizationError::InvalidParameter(msg) => param_error(file, prefix, params, &msg),
+        e => ScenarioError::field(file, prefix, e.to_string()),
+    }
 }
 
 fn mcl(ctx: &mut BuildContext) -> Built {
     let params: MclParams = ctx.params()?;
-    params.validate().map_err(|msg| ctx.error("", msg))?;
+    let (file, prefix) = (&ctx.scenario.file, ctx.field());
+    let bad = |msg: String| param_error(file, &prefix, &params, &msg);
+    params.validate().map_err(bad)?;
+    // The likelihood field's size, from the map's before either is built (the scenario's
+    // loading checked that the map itself fits).
+    if let Ok(size) = ctx.scenario.world.grid_size(ctx.scenario.map.resolution) {
+        let extent = [
+            size.width as f64 * size.resolution,
+            size.height as f64 * size.resolution,
+        ];
+        params.check_field_size(extent).map_err(bad)?;
+    }
     let map = ctx
         .maps
         .mcl_map(ctx.scenario, &params)
-        .map_err(|e| ctx.error("", e.to_string()))?;
+        .map_err(|e| localization_error(file, &prefix, &params, e))?;
     let init = match &ctx.scenario.initial_belief {
         InitialBelief::Tracking { sigma } => MclBelief::Tracking {
             pose: ctx.scenario.start,
@@ -90,8 +187,8 @@ fn mcl(ctx: &mut BuildContext) -> Built {
             regions: polygons.clone(),
         },
     };
-    let mcl = Mcl::with_map(&ctx.spec.name, params, &map, init, ctx.seed())
-        .map_err(|e| ctx.error("", e.to_string()))?;
+    let mcl = Mcl::with_map(&ctx.spec.name, params.clone(), &map, init, ctx.seed())
+        .map_err(|e| localization_error(file, &prefix, &params, e))?;
     Ok(Box::new(mcl))
 }
 
@@ -106,7 +203,38 @@ fn ekf_slam(ctx: &mut BuildContext) -> Built {
     // The filter assumes the detector's noise unless the file says otherwise.
     params.sigma_range.get_or_insert(d.sigma_range);
     params.sigma_bearing.get_or_insert(d.sigma_bearing);
-    let slam = EkfSlam::new(&ctx.spec.name, params, ctx.scenario.start)
-        .map_err(|msg| ctx.error("", msg))?;
+    let (file, prefix) = (&ctx.scenario.file, ctx.field());
+    let slam = EkfSlam::new(&ctx.spec.name, params.clone(), ctx.scenario.start)
+        .map_err(|msg| param_error(file, &prefix, &params, &msg))?;
     Ok(Box::new(slam))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_check_message_is_placed_at_its_field() {
+        let p = MclParams::default();
+        let at =
+            |msg: &str| param_error(Path::new("s.toml"), "localizers[mcl]", &p, msg).to_string();
+        assert_eq!(
+            at("max_beams: 7 is more than the limit of 5 (L)"),
+            "s.toml: localizers[mcl].max_beams: 7 is more than the limit of 5 (L)"
+        );
+        assert_eq!(
+            at("alpha[2] must be finite and >= 0, got -1"),
+            "s.toml: localizers[mcl].alpha[2]: must be finite and >= 0, got -1"
+        );
+        // Not a field of the parameters: the message stays at the table.
+        assert_eq!(
+            at("the MclMap was built for other parameters"),
+            "s.toml: localizers[mcl]: the MclMap was built for other parameters"
+        );
+        let cgr = atrium_localization::CgrParams::default();
+        assert_eq!(
+            split_field(&cgr, "fspf.eta must be >= 1, got 0"),
+            Some(("fspf.eta", "must be >= 1, got 0"))
+        );
+    }
 }

@@ -15,6 +15,7 @@
 //! Optional `[localizers.learn]` sets [`WifiGraphParams`]; every other key is a
 //! [`WifiMclParams`] field. Paths are relative to the scenario file.
 
+use crate::builtins::{localization_error, param_error};
 use crate::error::ScenarioError;
 use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};
 use crate::seeds::derive_seed;
@@ -105,6 +106,13 @@ fn graph_from_training(
     field: &str,
 ) -> Result<Arc<WifiGraph>, ScenarioError> {
     let survey_scenario = Scenario::load(path)?;
+    // The graph's size, from the survey world's bounds and access points, before the survey.
+    let (lo, hi) = survey_scenario.world.bounds();
+    params
+        .check_graph_size(lo, hi, survey_scenario.world.access_points.len())
+        .map_err(|msg| {
+            crate::builtins::param_error(file, &format!("{field}.learn"), params, &msg)
+        })?;
     let key = format!(
         "{}\n{}\n{:?}\n{:?}\n{:?}",
         survey_scenario.text,
@@ -166,7 +174,7 @@ pub fn build_wifi_localizer(
     };
     learn
         .validate()
-        .map_err(|msg| ScenarioError::field(file, format!("{field}.learn"), msg))?;
+        .map_err(|msg| param_error(file, &format!("{field}.learn"), &learn, &msg))?;
     let mcl_params: WifiMclParams =
         toml::Value::Table(params)
             .try_into()
@@ -175,7 +183,7 @@ pub fn build_wifi_localizer(
             })?;
     mcl_params
         .validate()
-        .map_err(|msg| ScenarioError::field(file, &field, msg))?;
+        .map_err(|msg| param_error(file, &field, &mcl_params, &msg))?;
     let dir = file.parent().unwrap_or(Path::new("."));
     let graph =
         match (training, graph_file) {
@@ -207,7 +215,7 @@ pub fn build_wifi_localizer(
             regions: polygons.clone(),
         },
     };
-    let f = WifiMcl::new(&spec.name, mcl_params, graph, grid, init, seed)
-        .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
+    let f = WifiMcl::new(&spec.name, mcl_params.clone(), graph, grid, init, seed)
+        .map_err(|e| localization_error(file, &field, &mcl_params, e))?;
     Ok(Box::new(f))
 }
