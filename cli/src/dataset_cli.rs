@@ -20,7 +20,9 @@ fn progress_bar(show: bool, name: &str) -> Option<indicatif::ProgressBar> {
 }
 
 /// `atrium record SCENARIO -o FILE.mcap [--seed N] [--json]`: runs the scenario live, writes
-/// the recording, prints the run's report (the same as `atrium run`).
+/// the recording, prints the run's report (the same as `atrium run`). The output is checked
+/// before the run (`dataset::record::check_output`); the file is written as
+/// `FILE.mcap.partial` until complete.
 pub fn record_command(
     registry: &LocalizerRegistry,
     scenario_path: &Path,
@@ -103,6 +105,10 @@ pub fn replay_command(
     json: bool,
     out: Option<PathBuf>,
 ) -> anyhow::Result<bool> {
+    // Before the replay, which may take long: a bad --out must not cost the whole run.
+    if let Some(dir) = &out {
+        output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
+    }
     let bar = progress_bar(!json && std::io::stderr().is_terminal(), "replay");
     let mut progress = |t: f64, total: f64| {
         if let Some(b) = &bar {

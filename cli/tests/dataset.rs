@@ -305,8 +305,269 @@ fn bad_files_are_refused_cleanly_with_exit_2() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Offsets of the top-level records of an MCAP file with `opcode`.
+fn records_with(bytes: &[u8], opcode: u8) -> Vec<usize> {
+    let mut at = mcap::MAGIC.len();
+    let mut found = Vec::new();
+    while at + 9 <= bytes.len() - mcap::MAGIC.len() {
+        if bytes[at] == opcode {
+            found.push(at);
+        }
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap());
+        at += 9 + len as usize;
+    }
+    found
+}
+
+/// `atrium replay ARGS...`: exit status and stderr.
+fn replay_err(args: &[&str]) -> (Option<i32>, String) {
+    let mut all = vec!["replay"];
+    all.extend_from_slice(args);
+    let o = atrium(&all);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    (o.status.code(), err)
+}
+
+fn record_short(name: &str, duration_s: f64, out: &Path) {
+    dataset::record(
+        &atrium_scenarios::LocalizerRegistry::with_builtins(),
+        &bundled_short(name, duration_s),
+        out,
+        RunOptions::default(),
+    )
+    .unwrap();
+}
+
+/// Damage the official reader's CRC checks reject is refused, naming the chunk by its byte
+/// offset; a chunk claiming an absurd size is refused before anything is allocated.
+#[test]
+fn damaged_recordings_are_refused_naming_the_chunk() {
+    let dir = tmpdir("damaged");
+    let good = dir.join("good.mcap");
+    record_short("corridor_tracking", 2.0, &good);
+    let bytes = std::fs::read(&good).unwrap();
+    let chunk = records_with(&bytes, 0x06)[0];
+    // Chunk body: start and end time (16), uncompressed size (8), CRC (4), compression.
+    let (size_at, crc_at) = (chunk + 9 + 16, chunk + 9 + 24);
+    let damaged = |name: &str, change: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = bytes.clone();
+        change(&mut b);
+        let p = dir.join(name);
+        std::fs::write(&p, &b).unwrap();
+        (p, b)
+    };
+
+    let (p, b) = damaged("crc.mcap", &|b| b[crc_at] ^= 0x10);
+    let (code, err) = replay_err(&[p.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(&format!("crc.mcap: chunk at byte {chunk}: CRC mismatch")),
+        "{err}"
+    );
+    // What the bug was: the `mcap` crate's default reader takes this file without a word.
+    assert!(mcap::MessageStream::new(&b).unwrap().all(|m| m.is_ok()));
+
+    let (p, _) = damaged("huge.mcap", &|b| {
+        b[size_at..size_at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes())
+    });
+    let (code, err) = replay_err(&[p.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(&format!("chunk at byte {chunk}: claims an uncompressed size of 1099511627776 bytes, more than the limit of 268435456 bytes")),
+        "{err}"
+    );
+
+    // A flipped bit in the compressed records, and one in the metadata (outside any chunk).
+    let (p, _) = damaged("data.mcap", &|b| b[crc_at + 40] ^= 0x01);
+    let (code, err) = replay_err(&[p.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains(&format!("chunk at byte {chunk}")), "{err}");
+    let meta = records_with(&bytes, 0x0C)[0];
+    let (p, _) = damaged("meta.mcap", &|b| b[meta + 30] ^= 0x01);
+    let (code, err) = replay_err(&[p.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("data section CRC mismatch"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `src` rewritten by `edit`, which sees every message and returns those to write.
+fn rewrite(
+    src: &Path,
+    dst: &Path,
+    edit: impl Fn(mcap::Message<'static>) -> Vec<mcap::Message<'static>>,
+) {
+    let bytes = std::fs::read(src).unwrap();
+    let f = std::io::BufWriter::new(std::fs::File::create(dst).unwrap());
+    let mut w = mcap::WriteOptions::new().create(f).unwrap();
+    for r in mcap::read::LinearReader::new(&bytes).unwrap() {
+        if let mcap::records::Record::Metadata(m) = r.unwrap() {
+            w.write_metadata(&m).unwrap();
+        }
+    }
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        for m in edit(m.unwrap()) {
+            w.write(&m).unwrap();
+        }
+    }
+    w.finish().unwrap();
+}
+
+/// Replay refuses what would give a plausible-looking wrong answer: localizers without the
+/// sensor they read, a message twice, another world or robot than the recording's.
+#[test]
+fn replay_refuses_missing_sensors_duplicates_and_another_world() {
+    let dir = tmpdir("replay_checks");
+    let good = dir.join("good.mcap");
+    record_short("corridor_tracking", 2.0, &good);
+    let good_s = good.to_str().unwrap();
+
+    let no_laser = dir.join("no_laser.mcap");
+    rewrite(&good, &no_laser, |m| {
+        if m.channel.topic.starts_with("/scan/") {
+            vec![]
+        } else {
+            vec![m]
+        }
+    });
+    let (code, err) = replay_err(&[no_laser.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("no_laser.mcap: topics: localizer \"mcl\" (kind mcl) needs laser scans on a /scan/<sensor> topic, but the recording has no messages there"),
+        "{err}"
+    );
+    // Dead reckoning needs nothing the file lacks.
+    let (code, err) = replay_err(&[
+        no_laser.to_str().unwrap(),
+        "--localizer",
+        "dr=dead_reckoning",
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+
+    let twice = dir.join("twice.mcap");
+    rewrite(&good, &twice, |m| {
+        if m.channel.topic == "/odom/wheels" && m.sequence == 7 {
+            vec![m.clone(), m]
+        } else {
+            vec![m]
+        }
+    });
+    let (code, err) = replay_err(&[twice.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("twice.mcap: topic /odom/wheels: the message at 0.14 s (log time 140000000 ns, sequence 7) is there twice"),
+        "{err}"
+    );
+
+    // Another world.
+    let slam = atrium_scenarios::bundled_scenarios_dir().join("slam_paper.toml");
+    let (code, err) = replay_err(&[good_s, "--scenario", slam.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("slam_paper.toml: world: world \"slam_lab\"")
+            && err.contains("is not the world the recording")
+            && err.contains("was made with, world \"campus\""),
+        "{err}"
+    );
+    // The same world's name on an edited copy of its file, and another robot.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let campus = std::fs::read_to_string(root.join("worlds/campus.toml")).unwrap();
+    std::fs::write(
+        dir.join("campus.toml"),
+        campus.replacen("height = ", "height = 0.5 + ", 0) + "\n# edited\n",
+    )
+    .unwrap();
+    let corridor = std::fs::read_to_string(
+        atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml"),
+    )
+    .unwrap();
+    let robots = root.join("robots/urdf");
+    let edited = corridor
+        .replace("../worlds/campus.toml", "campus.toml")
+        .replace("../robots/urdf/", &format!("{}/", robots.display()));
+    std::fs::write(dir.join("edited_world.toml"), &edited).unwrap();
+    let (code, err) = replay_err(&[
+        good_s,
+        "--scenario",
+        dir.join("edited_world.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("world \"campus\"") && err.contains("content hash fnv1a64:"),
+        "{err}"
+    );
+    let wheelchair = corridor
+        .replace("../worlds/", &format!("{}/", root.join("worlds").display()))
+        .replace(
+            "../robots/urdf/pioneer3dx.urdf",
+            &robots.join("wheelchair.urdf").display().to_string(),
+        );
+    std::fs::write(dir.join("wheelchair.toml"), &wheelchair).unwrap();
+    let (code, err) = replay_err(&[
+        good_s,
+        "--scenario",
+        dir.join("wheelchair.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("robot \"wheelchair\"") && err.contains("was made with, robot \"pioneer3dx\""),
+        "{err}"
+    );
+    // The recording's own scenario named explicitly is fine.
+    let own = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
+    let (code, err) = replay_err(&[
+        good_s,
+        "--scenario",
+        own.to_str().unwrap(),
+        "--localizer",
+        "dr=dead_reckoning",
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A bad `-o` is refused before the run with nothing written; a partial file a killed run
+/// left is replaced and gone after a new recording to the same output.
+#[test]
+fn record_checks_its_output_first_and_replaces_a_stale_partial_file() {
+    let dir = tmpdir("record_output");
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hostile/base.toml");
+    let record = |out: &Path| {
+        let o = atrium(&[
+            "record",
+            base.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(!err.contains("panicked"), "{err}");
+        (o.status.code(), err)
+    };
+    let missing = dir.join("nope/run.mcap");
+    let (code, err) = record(&missing);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(&format!("cannot write {}", missing.display())),
+        "{err}"
+    );
+    let (code, err) = record(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("it is a folder"), "{err}");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+
+    let out = dir.join("run.mcap");
+    let partial = dir.join("run.mcap.partial");
+    std::fs::write(&partial, "left by a killed run").unwrap();
+    let (code, err) = record(&out);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.exists() && !partial.exists());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// An unfinished recording (an error or a kill mid-run) never leaves a file under the final
-/// name: the run fails at the kidnapping (into a wall) after the file was opened.
+/// name: the run fails at the kidnapping (into a wall) after the file was opened. A partial
+/// file an earlier killed run left is gone too.
 #[test]
 fn a_failed_recording_leaves_no_file() {
     let mut scenario = bundled_short("kidnapped", 10.0);
@@ -318,6 +579,7 @@ fn a_failed_recording_leaves_no_file() {
     *to = atrium_robots::Pose2::new(inside[0], inside[1], 0.0);
     let dir = tmpdir("failed");
     let out = dir.join("x.mcap");
+    std::fs::write(dir.join("x.mcap.partial"), "left by a killed run").unwrap();
     assert!(dataset::record(
         &atrium_scenarios::LocalizerRegistry::with_builtins(),
         &scenario,
@@ -388,4 +650,164 @@ fn exported_occupancy_map_matches_the_free_space() {
         assert!(free > 10_000 && occupied > 1_000, "{free} {occupied}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A tiny recording from elsewhere: wheel odometry and scoring instants at 0.1, 0.2 and 0.3 s
+/// (uncompressed, so the same code always writes the same bytes), with `metadata` as the
+/// `atrium` metadata record and `more` writing extra channels and messages.
+fn tiny(
+    metadata: Option<BTreeMap<String, String>>,
+    twice: bool,
+    more: impl Fn(&mut mcap::Writer<&mut std::io::Cursor<Vec<u8>>>),
+) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .library("atrium hostile corpus")
+        .create(&mut out)
+        .unwrap();
+    if let Some(m) = metadata {
+        w.write_metadata(&mcap::records::Metadata {
+            name: "atrium".into(),
+            metadata: m,
+        })
+        .unwrap();
+    }
+    let odom_schema = w
+        .add_schema("atrium.WheelOdometry", "jsonschema", b"{}")
+        .unwrap();
+    let score_schema = w
+        .add_schema("atrium.ScoringInstant", "jsonschema", b"{}")
+        .unwrap();
+    let odom = w
+        .add_channel(odom_schema, "/odom/wheels", "json", &BTreeMap::new())
+        .unwrap();
+    let score = w
+        .add_channel(score_schema, "/atrium/score", "json", &BTreeMap::new())
+        .unwrap();
+    for k in 1..=3u32 {
+        let t = f64::from(k) / 10.0;
+        let ns = u64::from(k) * 100_000_000;
+        let header = |channel_id| mcap::records::MessageHeader {
+            channel_id,
+            sequence: k,
+            log_time: ns,
+            publish_time: ns,
+        };
+        let o = format!(
+            r#"{{"stamp":{t},"pose":{{"x":{},"y":20.0,"theta":0.0}},"left_ticks":{k},"right_ticks":{k}}}"#,
+            2.0 + t / 10.0
+        );
+        w.write_to_known_channel(&header(odom), o.as_bytes())
+            .unwrap();
+        if twice && k == 2 {
+            w.write_to_known_channel(&header(odom), o.as_bytes())
+                .unwrap();
+        }
+        let s = format!(r#"{{"t":{t},"x":2.0,"y":20.0,"theta":0.0}}"#);
+        w.write_to_known_channel(&header(score), s.as_bytes())
+            .unwrap();
+        if k == 1 {
+            more(&mut w);
+        }
+    }
+    w.finish().unwrap();
+    drop(w);
+    out.into_inner()
+}
+
+/// The MCAP files of the hostile corpus (`tests/hostile/mcap_*.mcap`, run by
+/// `cases_mcap.toml`). A test checks that the committed files are exactly these;
+/// `ATRIUM_WRITE_HOSTILE_MCAP=1 cargo test --release -p atrium-cli --test dataset corpus`
+/// rewrites them.
+fn hostile_mcap_files() -> Vec<(&'static str, Vec<u8>)> {
+    let valid = tiny(None, false, |_| {});
+    let chunk = records_with(&valid, 0x06)[0];
+    let header = records_with(&valid, 0x01)[0];
+    let with = |change: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = valid.clone();
+        change(&mut b);
+        b
+    };
+    let image = tiny(None, false, |w| {
+        let s = w.add_schema("foxglove.RawImage", "protobuf", b"").unwrap();
+        let c = w
+            .add_channel(s, "/depth/kinect", "protobuf", &BTreeMap::new())
+            .unwrap();
+        let msg = foxglove::messages::RawImage {
+            width: 65535,
+            height: 65535,
+            step: 65535 * 4,
+            encoding: "32FC1".into(),
+            data: foxglove::bytes::Bytes::from(vec![0u8; 4]),
+            ..Default::default()
+        };
+        let mut data = Vec::new();
+        foxglove::Encode::encode(&msg, &mut data).unwrap();
+        let h = mcap::records::MessageHeader {
+            channel_id: c,
+            sequence: 1,
+            log_time: 100_000_000,
+            publish_time: 100_000_000,
+        };
+        w.write_to_known_channel(&h, &data).unwrap();
+    });
+    let lab = BTreeMap::from([
+        ("world".to_string(), "lab".to_string()),
+        ("robot".to_string(), "pioneer3dx".to_string()),
+    ]);
+    vec![
+        // The chunk's stored CRC, one bit off.
+        ("mcap_chunk_crc.mcap", with(&|b| b[chunk + 9 + 24] ^= 0x04)),
+        // The chunk claims 2^61 bytes uncompressed.
+        (
+            "mcap_huge_chunk.mcap",
+            with(&|b| {
+                b[chunk + 9 + 16..chunk + 9 + 24].copy_from_slice(&(1u64 << 61).to_le_bytes())
+            }),
+        ),
+        // The header record claims 2^60 bytes.
+        (
+            "mcap_huge_record.mcap",
+            with(&|b| b[header + 1..header + 9].copy_from_slice(&(1u64 << 60).to_le_bytes())),
+        ),
+        // The header's profile string claims 0x7f7f7f7f bytes.
+        (
+            "mcap_huge_string.mcap",
+            with(&|b| b[header + 9..header + 13].fill(0x7f)),
+        ),
+        // A letter of the header's library string changed: only the data section CRC tells.
+        ("mcap_data_crc.mcap", with(&|b| b[header + 13 + 4] ^= 0x20)),
+        ("mcap_truncated.mcap", valid[..valid.len() / 2].to_vec()),
+        ("mcap_duplicate.mcap", tiny(None, true, |_| {})),
+        ("mcap_no_laser.mcap", valid.clone()),
+        ("mcap_other_world.mcap", tiny(Some(lab), false, |_| {})),
+        ("mcap_huge_image.mcap", image),
+    ]
+}
+
+#[test]
+fn hostile_mcap_corpus_is_what_its_generator_writes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hostile");
+    let write = std::env::var_os("ATRIUM_WRITE_HOSTILE_MCAP").is_some();
+    for (name, bytes) in hostile_mcap_files() {
+        let path = dir.join(name);
+        assert!(bytes.len() < 4096, "{name}: {} bytes", bytes.len());
+        if write {
+            std::fs::write(&path, &bytes).unwrap();
+        }
+        let committed = std::fs::read(&path).unwrap_or_default();
+        assert!(
+            committed == bytes,
+            "{} differs from its generator: rewrite with ATRIUM_WRITE_HOSTILE_MCAP=1",
+            path.display()
+        );
+    }
+    // The valid base of the corpus replays (dead reckoning, base.toml's localizer).
+    let (code, err) = replay_err(&[
+        dir.join("mcap_no_laser.mcap").to_str().unwrap(),
+        "--scenario",
+        dir.join("base.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
 }

@@ -139,7 +139,13 @@ pub fn fill_disparity(
 fn rows<'a>(msg: &'a fg::RawImage, bpp: usize, what: &str) -> Result<Vec<&'a [u8]>, String> {
     let (w, h) = (msg.width as usize, msg.height as usize);
     let step = msg.step as usize;
-    if w == 0 || h == 0 || step < w * bpp || msg.data.len() < step * (h - 1) + w * bpp {
+    // Width, height and step come from the file: checked arithmetic (u32 products overflow
+    // in release builds) before any slicing.
+    let row = w.checked_mul(bpp);
+    let need = row.and_then(|row| step.checked_mul(h.checked_sub(1)?)?.checked_add(row));
+    let fits =
+        matches!((row, need), (Some(row), Some(need)) if step >= row && msg.data.len() >= need);
+    if w == 0 || h == 0 || !fits {
         return Err(format!(
             "{what}: {w}x{h} image of {} bytes with step {step} is empty or too short",
             msg.data.len()
@@ -163,8 +169,10 @@ pub fn intensity_from_message(
             msg.encoding
         ));
     }
+    // After `rows` has checked that the pixels are there: the size is the file's to claim.
+    let rows = rows(msg, 1, "intensity")?;
     let mut pixels = Vec::with_capacity(msg.width as usize * msg.height as usize);
-    for row in rows(msg, 1, "intensity")? {
+    for row in rows {
         pixels.extend(row.iter().map(|&b| b as f32 / 255.0));
     }
     let need =
@@ -202,8 +210,9 @@ pub fn disparity_from_message(
             msg.encoding
         ));
     }
+    let rows = rows(msg, 4, "disparity")?;
     let mut disparity = Vec::with_capacity(msg.width as usize * msg.height as usize);
-    for row in rows(msg, 4, "disparity")? {
+    for row in rows {
         disparity.extend(
             row.chunks_exact(4)
                 .map(|p| f32::from_le_bytes([p[0], p[1], p[2], p[3]])),

@@ -22,12 +22,15 @@
 //! | `/atrium/events` | `atrium.Event` | events as they took effect (kidnapping) |
 //!
 //! Metadata `atrium`: `atrium_version`, `seed`, `scenario` (the file's text),
-//! `scenario_file`, `scenario_name`, `world`, `robot`, `base_link`, `physics_hz`, `eval_hz`,
-//! `localizers` and `events` (JSON). Metadata `atrium.summary`, written at the end:
+//! `scenario_file`, `scenario_name`, `world`, `world_file`, `world_hash`, `robot`,
+//! `robot_file`, `robot_hash` (content hashes of the world TOML and the URDF, which replay
+//! compares with the files it is given), `base_link`, `physics_hz`, `eval_hz`, `localizers`
+//! and `events` (JSON). Metadata `atrium.summary`, written at the end:
 //! `sim_time_s`, `distance_m`, `route_completed`, `physics_steps`, `metrics` (the run's JSON
 //! report without timing).
 
 pub mod codec;
+pub mod container;
 pub mod images;
 pub mod record;
 pub mod replay;

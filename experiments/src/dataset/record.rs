@@ -1,6 +1,14 @@
 //! `atrium record`: a live run written to MCAP as it happens (a [`RunObserver`] of the
-//! runner), zstd-compressed chunks, log times from the simulation clock, written under a
-//! temporary name and renamed once complete.
+//! runner), zstd-compressed chunks, log times from the simulation clock.
+//!
+//! The file is written as `<output>.partial` beside the output and renamed once complete, so
+//! the final name never holds half a recording. The partial name is visible and tied to the
+//! output on purpose: a run that is killed (SIGKILL, or SIGINT / SIGTERM, which the standard
+//! library cannot catch and for which no signal crate is available offline here) leaves it
+//! where the user sees what it is, and the next `record` to the same output replaces it. A
+//! run that fails with an error removes it. The output is checked before the run starts
+//! (its folder exists, it is no folder and not read-only, the partial file can be created),
+//! so a bad `-o` costs nothing; every write error names the final output.
 
 use super::codec::{self, json_schemas, ns_of};
 use super::scene::{robot_transforms, scene_update};
@@ -92,36 +100,145 @@ pub struct Recorder {
     messages: u64,
 }
 
-fn io_err(path: &Path, e: impl std::fmt::Display) -> ScenarioError {
-    ScenarioError::Io {
-        file: path.to_path_buf(),
-        err: std::io::Error::other(e.to_string()),
+/// A failure to write the recording, named by its final path (never the partial one: that
+/// is an implementation detail, and never "read": nothing is read here).
+fn write_err(path: &Path, e: impl std::fmt::Display) -> ScenarioError {
+    ScenarioError::field(
+        path,
+        "output",
+        format!("cannot write {}: {e}", path.display()),
+    )
+}
+
+/// The partial file a recording to `path` is written under until complete.
+pub fn partial_path(path: &Path) -> Option<PathBuf> {
+    let mut name = path.file_name()?.to_os_string();
+    name.push(".partial");
+    Some(path.with_file_name(name))
+}
+
+/// Checks that `path` can be the output of a recording, before any run: its folder exists,
+/// it is not a folder itself, and it is not a read-only file (the rename at the end would
+/// silently replace a file the user protected). Whether the folder is writable is found out
+/// by creating the partial file, which [`Recorder::create`] does right after.
+pub fn check_output(path: &Path) -> Result<(), ScenarioError> {
+    let fail = |why: String| write_err(path, why);
+    if path.file_name().is_none() {
+        return Err(fail("it names no file".into()));
     }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => {}
+        Ok(_) => return Err(fail(format!("{} is not a folder", dir.display()))),
+        Err(e) => return Err(fail(format!("folder {}: {e}", dir.display()))),
+    }
+    if let Ok(m) = std::fs::metadata(path) {
+        if m.is_dir() {
+            return Err(fail("it is a folder".into()));
+        }
+        if m.permissions().readonly() {
+            return Err(fail("the file is read-only".into()));
+        }
+    }
+    Ok(())
+}
+
+/// A stable hash of a file a recording depends on (64-bit FNV-1a of its bytes, in hex):
+/// replay compares it with the file it is given to notice another world or robot under the
+/// same name. It catches accidents (an edited or different file), not forgeries.
+pub fn content_hash(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("fnv1a64:{h:016x}")
 }
 
 impl Recorder {
-    /// Opens `<dir>/.<name>.<pid>.tmp` for writing and puts the scenario text, seed and Atrium
-    /// version in the file's `atrium` metadata record.
+    /// Checks the output ([`check_output`]), opens `<path>.partial` for writing (replacing
+    /// one an earlier killed run left) and puts the scenario text, seed, Atrium version and
+    /// the world and robot files' content hashes in the file's `atrium` metadata record.
     pub fn create(path: &Path, scenario: &Scenario, seed: u64) -> Result<Recorder, ScenarioError> {
-        let file_name = path
-            .file_name()
-            .ok_or_else(|| io_err(path, "not a file path"))?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(file_name);
-        tmp_name.push(format!(".{}.tmp", std::process::id()));
-        let tmp = path.with_file_name(tmp_name);
-        let file = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
-        let mut writer = mcap::WriteOptions::new()
+        check_output(path)?;
+        let tmp = partial_path(path).ok_or_else(|| write_err(path, "it names no file"))?;
+        let hash_of = |file: &Path| {
+            std::fs::read(file)
+                .map(|b| content_hash(&b))
+                .map_err(|err| ScenarioError::Io {
+                    file: file.to_path_buf(),
+                    err,
+                })
+        };
+        let world_hash = hash_of(&scenario.world_file)?;
+        let robot_hash = hash_of(&scenario.robot_file)?;
+        // Truncates a partial file an earlier killed run left behind.
+        let file = File::create(&tmp).map_err(|e| write_err(path, e))?;
+        let created = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .profile("")
             .library(format!("atrium {}", env!("CARGO_PKG_VERSION")))
             .create(BufWriter::with_capacity(1 << 20, file))
-            .map_err(|e| io_err(&tmp, e))?;
+            .map_err(|e| write_err(path, e));
+        let mut writer = match created {
+            Ok(w) => w,
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                return Err(e);
+            }
+        };
+        // From here on a failure drops `writer` unfinished; remove the partial file then.
+        let made = Self::start(&mut writer, path, scenario, seed, world_hash, robot_hash);
+        let schemas = match made {
+            Ok(s) => s,
+            Err(e) => {
+                drop(writer);
+                let _ = std::fs::remove_file(&tmp);
+                return Err(e);
+            }
+        };
+        let laser_frames = scenario
+            .lasers
+            .iter()
+            .map(|l| (l.name.clone(), (l.mount.clone(), Pose2::default())))
+            .collect();
+        Ok(Recorder {
+            writer: Some(writer),
+            path: path.to_path_buf(),
+            tmp,
+            schemas,
+            channels: HashMap::new(),
+            sequence: HashMap::new(),
+            buf: Vec::with_capacity(1 << 16),
+            image_buf: Vec::new(),
+            laser_msg: fg::LaserScan::default(),
+            image_msg: fg::RawImage::default(),
+            laser_frames,
+            base_link: scenario.robot.base_link.clone(),
+            localizer_names: scenario.localizers.iter().map(|l| l.name.clone()).collect(),
+            world: scenario.world.clone(),
+            robot: scenario.robot.clone(),
+            started: false,
+            messages: 0,
+        })
+    }
 
+    /// The schemas and the `atrium` metadata record, at the start of a new file.
+    fn start(
+        writer: &mut mcap::Writer<BufWriter<File>>,
+        path: &Path,
+        scenario: &Scenario,
+        seed: u64,
+        world_hash: String,
+        robot_hash: String,
+    ) -> Result<Schemas, ScenarioError> {
         let mut add = |name: &str, encoding: &str, data: &[u8]| {
             writer
                 .add_schema(name, encoding, data)
-                .map_err(|e| io_err(&tmp, e))
+                .map_err(|e| write_err(path, e))
         };
         let fox = |s: Option<foxglove::Schema>| s.expect("well-known schemas have a schema");
         let (l, i, p, t, s) = (
@@ -160,10 +277,13 @@ impl Recorder {
             event: add("atrium.Event", "jsonschema", json_schemas::EVENT.as_bytes())?,
         };
 
-        let scenario_file = std::fs::canonicalize(&scenario.file)
-            .unwrap_or_else(|_| scenario.file.clone())
-            .to_string_lossy()
-            .into_owned();
+        let absolute = |p: &Path| {
+            std::fs::canonicalize(p)
+                .unwrap_or_else(|_| p.to_path_buf())
+                .to_string_lossy()
+                .into_owned()
+        };
+        let scenario_file = absolute(&scenario.file);
         let localizers: Vec<serde_json::Value> = scenario
             .localizers
             .iter()
@@ -180,7 +300,11 @@ impl Recorder {
             ("scenario_file".into(), scenario_file),
             ("scenario".into(), scenario.text.clone()),
             ("world".into(), scenario.world.name.clone()),
+            ("world_file".into(), absolute(&scenario.world_file)),
+            ("world_hash".into(), world_hash),
             ("robot".into(), scenario.robot.name.clone()),
+            ("robot_file".into(), absolute(&scenario.robot_file)),
+            ("robot_hash".into(), robot_hash),
             ("base_link".into(), scenario.robot.base_link.clone()),
             ("physics_hz".into(), format!("{:?}", scenario.physics_hz)),
             ("eval_hz".into(), format!("{:?}", scenario.eval_hz)),
@@ -195,32 +319,8 @@ impl Recorder {
                 name: METADATA_NAME.into(),
                 metadata,
             })
-            .map_err(|e| io_err(&tmp, e))?;
-
-        let laser_frames = scenario
-            .lasers
-            .iter()
-            .map(|l| (l.name.clone(), (l.mount.clone(), Pose2::default())))
-            .collect();
-        Ok(Recorder {
-            writer: Some(writer),
-            path: path.to_path_buf(),
-            tmp,
-            schemas,
-            channels: HashMap::new(),
-            sequence: HashMap::new(),
-            buf: Vec::with_capacity(1 << 16),
-            image_buf: Vec::new(),
-            laser_msg: fg::LaserScan::default(),
-            image_msg: fg::RawImage::default(),
-            laser_frames,
-            base_link: scenario.robot.base_link.clone(),
-            localizer_names: scenario.localizers.iter().map(|l| l.name.clone()).collect(),
-            world: scenario.world.clone(),
-            robot: scenario.robot.clone(),
-            started: false,
-            messages: 0,
-        })
+            .map_err(|e| write_err(path, e))?;
+        Ok(schemas)
     }
 
     /// Messages written so far.
@@ -252,11 +352,11 @@ impl Recorder {
             "protobuf"
         };
         let meta = metadata();
-        let tmp = self.tmp.clone();
+        let path = self.path.clone();
         let id = self
             .writer()
             .add_channel(schema, topic, encoding, &meta)
-            .map_err(|e| io_err(&tmp, e))?;
+            .map_err(|e| write_err(&path, e))?;
         self.channels.insert(topic.to_string(), id);
         Ok(id)
     }
@@ -274,7 +374,7 @@ impl Recorder {
         let writer = self.writer.as_mut().expect("the writer lives until finish");
         writer
             .write_to_known_channel(&header, &self.buf)
-            .map_err(|e| io_err(&self.tmp, e))?;
+            .map_err(|e| write_err(&self.path, e))?;
         self.messages += 1;
         Ok(())
     }
@@ -282,7 +382,7 @@ impl Recorder {
     fn put_proto(&mut self, channel: u16, ns: u64, msg: &impl Encode) -> Result<(), ScenarioError> {
         self.buf.clear();
         msg.encode(&mut self.buf)
-            .map_err(|e| io_err(&self.tmp, format!("encoding: {e}")))?;
+            .map_err(|e| write_err(&self.path, format!("encoding: {e}")))?;
         self.put(channel, ns)
     }
 
@@ -293,7 +393,7 @@ impl Recorder {
         v: &impl serde::Serialize,
     ) -> Result<(), ScenarioError> {
         self.buf.clear();
-        serde_json::to_writer(&mut self.buf, v).map_err(|e| io_err(&self.tmp, e))?;
+        serde_json::to_writer(&mut self.buf, v).map_err(|e| write_err(&self.path, e))?;
         self.put(channel, ns)
     }
 
@@ -445,7 +545,7 @@ impl Recorder {
     /// Writes the run's totals and metrics, completes the file and renames it to its final
     /// name. Returns the final size in bytes.
     pub fn finish(mut self, run: &RunResult) -> Result<u64, ScenarioError> {
-        let tmp = self.tmp.clone();
+        let (tmp, path) = (self.tmp.clone(), self.path.clone());
         let mut metrics = atrium_scenarios::report::to_json(run);
         if let Some(o) = metrics.as_object_mut() {
             o.remove("timing");
@@ -464,15 +564,15 @@ impl Recorder {
                     name: SUMMARY_NAME.into(),
                     metadata: summary,
                 })
-                .map_err(|e| io_err(&tmp, e))?;
-            writer.finish().map_err(|e| io_err(&tmp, e))?;
+                .map_err(|e| write_err(&path, e))?;
+            writer.finish().map_err(|e| write_err(&path, e))?;
             let file = writer
                 .into_inner()
                 .into_inner()
-                .map_err(|e| io_err(&tmp, e.error()))?;
-            file.sync_all().map_err(|e| io_err(&tmp, e))?;
-            let len = file.metadata().map_err(|e| io_err(&tmp, e))?.len();
-            std::fs::rename(&tmp, &self.path).map_err(|e| io_err(&self.path, e))?;
+                .map_err(|e| write_err(&path, e.error()))?;
+            file.sync_all().map_err(|e| write_err(&path, e))?;
+            let len = file.metadata().map_err(|e| write_err(&path, e))?.len();
+            std::fs::rename(&tmp, &path).map_err(|e| write_err(&path, e))?;
             Ok(len)
         })();
         if done.is_err() {
@@ -580,4 +680,64 @@ pub fn record(
         bytes,
         messages,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("atrium-record-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn a_bad_output_is_refused_before_anything_is_written() {
+        let dir = tmp("check");
+        let err = |p: &Path| check_output(p).unwrap_err().to_string();
+        let missing = dir.join("nope/run.mcap");
+        let e = err(&missing);
+        assert!(
+            e.contains(&format!("cannot write {}", missing.display())) && e.contains("nope"),
+            "{e}"
+        );
+        let e = err(&dir);
+        assert!(e.ends_with("it is a folder"), "{e}");
+        let locked = dir.join("locked.mcap");
+        std::fs::write(&locked, b"keep").unwrap();
+        let mut perm = std::fs::metadata(&locked).unwrap().permissions();
+        perm.set_readonly(true);
+        std::fs::set_permissions(&locked, perm).unwrap();
+        let e = err(&locked);
+        assert!(e.ends_with("the file is read-only"), "{e}");
+        let e = err(&dir.join("a_file.mcap/..").join("x.mcap"));
+        assert!(e.contains("cannot write"), "{e}");
+        assert!(check_output(&dir.join("fresh.mcap")).is_ok());
+        // Nothing was created on the way.
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("locked.mcap")]);
+        let mut perm = std::fs::metadata(&locked).unwrap().permissions();
+        #[allow(clippy::permissions_set_readonly_false)] // a test file, removed right after
+        perm.set_readonly(false);
+        std::fs::set_permissions(&locked, perm).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn partial_names_and_hashes_are_stable() {
+        assert_eq!(
+            partial_path(Path::new("out/run.mcap")).unwrap(),
+            Path::new("out/run.mcap.partial")
+        );
+        assert!(partial_path(Path::new("/")).is_none());
+        // FNV-1a test vectors.
+        assert_eq!(content_hash(b""), "fnv1a64:cbf29ce484222325");
+        assert_eq!(content_hash(b"a"), "fnv1a64:af63dc4c8601ec8c");
+        assert_ne!(content_hash(b"campus"), content_hash(b"campus "));
+    }
 }

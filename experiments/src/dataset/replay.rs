@@ -6,8 +6,17 @@
 //! without Atrium's exact side channels the odometry comes from `/odom`, the scoring instants
 //! and ground truth from `/ground_truth`, a laser's mount from the `/tf` transform from the
 //! base link to the scan's frame; such a file needs `--scenario` for the world and localizers.
+//!
+//! A recording is checked whole when it is opened, before any localizer is built: its
+//! container ([`container`](super::container): sizes, CRCs), channels defined before their
+//! messages, log times in order, no message twice (same channel, log time and sequence
+//! number; unnumbered messages when their bytes are the same too). Before the replay, the
+//! scenario's world and robot must be the recording's (names, and content hashes of the
+//! files when the recording has them), and every localizer must find messages on the
+//! sensor topics it reads ([`Recording::check_sensor_topics`]).
 
 use super::codec::{self, seconds_of};
+use super::container::{Place, Records};
 use super::record::{events_from_json, METADATA_NAME, SUMMARY_NAME};
 use super::topics;
 use atrium_robots::{LandmarkDetections, Pose2, Reading, WheelOdometry, WifiScan};
@@ -19,7 +28,8 @@ use foxglove::messages as fg;
 use foxglove::Decode;
 use mcap::records::{MessageHeader, Record};
 use std::borrow::Cow;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -68,75 +78,165 @@ fn expected_schema(topic: &str) -> Option<(&'static str, &'static str)> {
     })
 }
 
+/// A topic a localizer reads: one sensor's (`prefix` + `sensor`) or any of a kind.
+struct Need {
+    what: &'static str,
+    prefix: &'static str,
+    sensor: Option<String>,
+}
+
+/// The sensor topics a built-in localizer kind reads, named as the kind's builder picks its
+/// sensor (its parameter, else the scenario's first of the kind). Odometry, which every
+/// replay needs, is checked for every file; choosers and fused mixtures read through their
+/// members, which are localizers of the scenario themselves; `process` localizers subscribe
+/// at run time and a user's kinds are unknown here, so neither is checked.
+fn sensor_needs(spec: &LocalizerSpec, scenario: &Scenario) -> Vec<Need> {
+    let param = |k: &str| {
+        spec.params
+            .get(k)
+            .and_then(|v| v.as_str())
+            .filter(|s| !s.is_empty())
+            .map(str::to_string)
+    };
+    let need = |what, prefix, sensor| Need {
+        what,
+        prefix,
+        sensor,
+    };
+    let cams = &scenario.cameras;
+    match spec.kind.as_str() {
+        "mcl" | "cgr_laser" => vec![need("laser scans", topics::SCAN_PREFIX, None)],
+        "landmark_filter" => vec![need(
+            "laser scans",
+            topics::SCAN_PREFIX,
+            param("laser").or_else(|| scenario.lasers.first().map(|l| l.name.clone())),
+        )],
+        "cgr_depth" => vec![need("depth images", topics::DEPTH_PREFIX, None)],
+        "wifi" => vec![need("WiFi scans", topics::WIFI_PREFIX, None)],
+        "ekf_slam" => vec![need("landmark detections", topics::LANDMARKS_PREFIX, None)],
+        "ceiling_mcl" => vec![need(
+            "ceiling camera images",
+            topics::IMAGE_PREFIX,
+            param("sensor").or_else(|| cams.ceiling.first().map(|c| c.name.clone())),
+        )],
+        "omni" => vec![need(
+            "panoramic camera images",
+            topics::IMAGE_PREFIX,
+            param("sensor").or_else(|| cams.omni.first().map(|c| c.name.clone())),
+        )],
+        "appearance" => {
+            let sensor = param("sensor").or_else(|| {
+                cams.stereo
+                    .first()
+                    .map(|s| s.stereo.camera.name.clone())
+                    .or_else(|| cams.cameras.first().map(|c| c.camera.name.clone()))
+            });
+            let stereo = sensor
+                .as_ref()
+                .is_some_and(|n| cams.stereo.iter().any(|s| &s.stereo.camera.name == n));
+            let disparity = spec
+                .params
+                .get("disparity")
+                .and_then(|v| v.as_bool())
+                .unwrap_or(stereo);
+            let mut v = vec![need("camera images", topics::IMAGE_PREFIX, sensor.clone())];
+            if disparity {
+                v.push(need("disparity maps", topics::DISPARITY_PREFIX, sensor));
+            }
+            v
+        }
+        _ => Vec::new(),
+    }
+}
+
 fn bad(file: &Path, what: impl Into<String>, msg: impl Into<String>) -> ScenarioError {
     ScenarioError::field(file, what, msg)
 }
 
-/// A recording read into memory and checked: MCAP framing, schemas of the known topics,
-/// required topics, metadata.
+/// A recording read into memory and checked: MCAP framing, sizes and CRCs (see
+/// [`container`](super::container)), schemas of the known topics, channels defined before
+/// their messages, messages in log-time order and none twice, required topics, metadata.
 pub struct Recording {
     pub path: PathBuf,
     bytes: Vec<u8>,
-    schemas: HashMap<u16, (String, String)>,
+    /// Schema id -> (name, encoding, CRC of the schema's data).
+    schemas: HashMap<u16, (String, String, u32)>,
     channels: HashMap<u16, ChannelInfo>,
+    /// Messages per channel id.
+    counts: HashMap<u16, u64>,
     /// The `atrium` metadata record (empty for a file from elsewhere).
     pub metadata: BTreeMap<String, String>,
     /// The `atrium.summary` metadata record, when the file has one.
     pub summary: BTreeMap<String, String>,
 }
 
+/// What has been seen of one channel at its latest log time: duplicates are messages of the
+/// same channel at the same log time with the same sequence number.
+#[derive(Default)]
+struct SeenAt {
+    log_time: u64,
+    sequences: HashSet<u32>,
+    /// Sequence 0 means "not numbered" (many writers leave it so): such messages at one
+    /// time are duplicates only when their bytes are identical, since a topic may carry
+    /// several distinct messages at one instant (`/tf` from several broadcasters).
+    unnumbered: HashSet<(usize, u64)>,
+}
+
 impl Recording {
     pub fn open(path: &Path) -> Result<Recording, ScenarioError> {
-        let bytes = std::fs::read(path).map_err(|err| ScenarioError::Io {
+        let io = |err| ScenarioError::Io {
             file: path.to_path_buf(),
             err,
-        })?;
+        };
+        // A device or a pipe named as a recording would be read forever (`/dev/zero`).
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            let what = if meta.is_dir() {
+                "is a folder"
+            } else {
+                "is not a regular file"
+            };
+            return Err(bad(path, "file", format!("{what}, not an MCAP recording")));
+        }
+        let bytes = std::fs::read(path).map_err(io)?;
         Self::from_bytes(bytes, path)
     }
 
     pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<Recording, ScenarioError> {
-        if !bytes.starts_with(mcap::MAGIC) {
-            return Err(bad(
-                path,
-                "file",
-                "not an MCAP file (it does not start with the MCAP magic bytes)",
-            ));
-        }
-        if bytes.len() < 2 * mcap::MAGIC.len() || !bytes.ends_with(mcap::MAGIC) {
-            return Err(bad(
-                path,
-                "file",
-                "truncated MCAP file: it does not end with the footer's magic bytes (was the recording interrupted?)",
-            ));
-        }
         let mut rec = Recording {
             path: path.to_path_buf(),
             bytes: Vec::new(),
             schemas: HashMap::new(),
             channels: HashMap::new(),
+            counts: HashMap::new(),
             metadata: BTreeMap::new(),
             summary: BTreeMap::new(),
         };
-        // Top-level records only (chunks stay compressed): schemas and channels repeated in
-        // the summary section, and the metadata records.
-        let reader = mcap::read::LinearReader::new(&bytes)
-            .map_err(|e| bad(path, "file", format!("corrupt MCAP: {e}")))?;
-        for r in reader {
-            let r = r.map_err(|e| bad(path, "file", format!("corrupt MCAP: {e}")))?;
-            rec.take_record(&r)?;
-        }
-        if rec.channels.is_empty() {
-            // No summary section: the channel records live in the chunks.
-            let flat = mcap::read::ChunkFlattener::new(&bytes)
-                .map_err(|e| bad(path, "file", format!("corrupt MCAP: {e}")))?;
-            for r in flat {
-                let r = r.map_err(|e| bad(path, "file", format!("corrupt MCAP: {e}")))?;
-                if !matches!(r, Record::Message { .. }) {
-                    rec.take_record(&r)?;
+        // One pass over every record, chunks unpacked: whatever replay will read later has
+        // passed every check here, before a localizer is built.
+        let mut seen: HashMap<u16, SeenAt> = HashMap::new();
+        let mut last_time: Option<(u64, u16)> = None;
+        for r in Records::new(&bytes, path)? {
+            let (place, r) = r?;
+            match r {
+                Record::Message { header, data } => {
+                    rec.check_message(place, &header, &data, &mut seen, &mut last_time)?;
                 }
+                other => rec.take_record(place, &other)?,
             }
         }
         rec.bytes = bytes;
+        if let Some(v) = rec.metadata.get("physics_hz") {
+            // Replay snaps log times to this clock: 0, negative or NaN would make every
+            // stamp infinite or NaN.
+            if !v.parse::<f64>().is_ok_and(|hz| hz.is_finite() && hz > 0.0) {
+                return Err(bad(
+                    path,
+                    "metadata.physics_hz",
+                    format!("{v:?} is not a rate in Hz (a finite number > 0)"),
+                ));
+            }
+        }
         let has = |t: &str| rec.channels.values().any(|c| c.topic == t);
         if !(has(topics::ODOM_WHEELS) || has(topics::ODOM)) {
             return Err(bad(
@@ -163,11 +263,95 @@ impl Recording {
         Ok(rec)
     }
 
-    fn take_record(&mut self, r: &Record) -> Result<(), ScenarioError> {
+    /// A message's channel is defined, its log time does not go back, and it is not a
+    /// second copy of a message already seen.
+    fn check_message(
+        &mut self,
+        place: Place,
+        header: &MessageHeader,
+        data: &[u8],
+        seen: &mut HashMap<u16, SeenAt>,
+        last_time: &mut Option<(u64, u16)>,
+    ) -> Result<(), ScenarioError> {
+        let id = header.channel_id;
+        let Some(ch) = self.channels.get(&id) else {
+            return Err(bad(
+                &self.path,
+                place.to_string(),
+                format!("a message on channel {id}, which no channel record before it defines"),
+            ));
+        };
+        let topic = format!("topic {}", ch.topic);
+        let ns = header.log_time;
+        if let Some((prev, prev_ch)) = *last_time {
+            if ns < prev {
+                let prev_topic = self.channels.get(&prev_ch).map_or("?", |c| &c.topic);
+                return Err(bad(
+                    &self.path,
+                    topic,
+                    format!(
+                        "messages are not in log-time order ({ns} ns, {place}, after {prev} ns on {prev_topic}); replay reads files in time order"
+                    ),
+                ));
+            }
+        }
+        *last_time = Some((ns, id));
+        let at = seen.entry(id).or_default();
+        if at.log_time != ns {
+            at.log_time = ns;
+            at.sequences.clear();
+            at.unnumbered.clear();
+        }
+        let again = if header.sequence == 0 {
+            let mut h = std::hash::DefaultHasher::new();
+            data.hash(&mut h);
+            !at.unnumbered.insert((data.len(), h.finish()))
+        } else {
+            !at.sequences.insert(header.sequence)
+        };
+        if again {
+            let which = match header.sequence {
+                0 => "unnumbered, with the same bytes".to_string(),
+                s => format!("sequence {s}"),
+            };
+            return Err(bad(
+                &self.path,
+                topic,
+                format!(
+                    "the message at {} s (log time {ns} ns, {which}) is there twice (the second at the {place}): replay would feed the localizers the same reading twice; the file is damaged or was joined from overlapping recordings",
+                    ns as f64 / 1e9
+                ),
+            ));
+        }
+        *self.counts.entry(id).or_default() += 1;
+        Ok(())
+    }
+
+    fn take_record(&mut self, place: Place, r: &Record) -> Result<(), ScenarioError> {
         match r {
-            Record::Schema { header, .. } => {
-                self.schemas
-                    .insert(header.id, (header.name.clone(), header.encoding.clone()));
+            Record::Schema { header, data } => {
+                let new = (
+                    header.name.clone(),
+                    header.encoding.clone(),
+                    crc32fast::hash(data),
+                );
+                match self.schemas.get(&header.id) {
+                    // The summary section repeats the schemas of the data section.
+                    Some(old) if *old == new => {}
+                    Some(old) => {
+                        return Err(bad(
+                            &self.path,
+                            place.to_string(),
+                            format!(
+                                "schema {} is defined twice, differently ({:?} and {:?})",
+                                header.id, old.0, new.0
+                            ),
+                        ))
+                    }
+                    None => {
+                        self.schemas.insert(header.id, new);
+                    }
+                }
             }
             Record::Channel(c) => {
                 let schema = match c.schema_id {
@@ -192,20 +376,45 @@ impl Recording {
                         ));
                     }
                 }
-                self.channels.insert(
-                    c.id,
-                    ChannelInfo {
-                        topic: c.topic.clone(),
-                        schema,
-                        metadata: c.metadata.clone(),
-                    },
-                );
+                let info = ChannelInfo {
+                    topic: c.topic.clone(),
+                    schema,
+                    metadata: c.metadata.clone(),
+                };
+                match self.channels.get(&c.id) {
+                    Some(old)
+                        if old.topic == info.topic
+                            && old.schema == info.schema
+                            && old.metadata == info.metadata => {}
+                    Some(old) => {
+                        return Err(bad(
+                            &self.path,
+                            place.to_string(),
+                            format!(
+                                "channel {} is defined twice, differently (topics {} and {})",
+                                c.id, old.topic, info.topic
+                            ),
+                        ))
+                    }
+                    None => {
+                        self.channels.insert(c.id, info);
+                    }
+                }
             }
             Record::Metadata(m) if m.name == METADATA_NAME => self.metadata = m.metadata.clone(),
             Record::Metadata(m) if m.name == SUMMARY_NAME => self.summary = m.metadata.clone(),
             _ => {}
         }
         Ok(())
+    }
+
+    /// Messages on `topic` (0 when the file has no such topic).
+    pub fn message_count(&self, topic: &str) -> u64 {
+        self.channels
+            .iter()
+            .filter(|(_, c)| c.topic == topic)
+            .map(|(id, _)| self.counts.get(id).copied().unwrap_or(0))
+            .sum()
     }
 
     /// The topics of the file with their schema names, sorted.
@@ -225,28 +434,147 @@ impl Recording {
     }
 
     /// The scenario to replay under: `override_path`, else the recorded scenario text (its
-    /// relative paths resolve against the recorded scenario file's folder).
+    /// relative paths resolve against the recorded scenario file's folder). Either way its
+    /// world and robot must be the ones the recording was made with (see
+    /// [`Recording::check_same_world_and_robot`]).
     pub fn scenario(&self, override_path: Option<&Path>) -> Result<Scenario, ScenarioError> {
-        if let Some(p) = override_path {
-            return Scenario::load(p);
-        }
-        let (Some(text), Some(file)) = (
-            self.metadata.get("scenario"),
-            self.metadata.get("scenario_file"),
-        ) else {
-            return Err(bad(
-                &self.path,
-                "metadata",
-                "has no Atrium scenario metadata: name a scenario with --scenario FILE",
-            ));
+        let scenario = match override_path {
+            Some(p) => Scenario::load(p)?,
+            None => {
+                let (Some(text), Some(file)) = (
+                    self.metadata.get("scenario"),
+                    self.metadata.get("scenario_file"),
+                ) else {
+                    return Err(bad(
+                        &self.path,
+                        "metadata",
+                        "has no Atrium scenario metadata: name a scenario with --scenario FILE",
+                    ));
+                };
+                Scenario::from_toml_str(text, Path::new(file)).map_err(|e| {
+                    bad(
+                        &self.path,
+                        "metadata.scenario",
+                        format!("the recorded scenario cannot be loaded here ({e}); name one with --scenario FILE"),
+                    )
+                })?
+            }
         };
-        Scenario::from_toml_str(text, Path::new(file)).map_err(|e| {
-            bad(
-                &self.path,
-                "metadata.scenario",
-                format!("the recorded scenario cannot be loaded here ({e}); name one with --scenario FILE"),
-            )
-        })
+        self.check_same_world_and_robot(&scenario, override_path)?;
+        Ok(scenario)
+    }
+
+    /// Refuses to replay under another world or robot than the recording's: the readings
+    /// were taken in one building, and scoring them against another map gives numbers that
+    /// look plausible and mean nothing. Compares the names, and the content hashes of the
+    /// world and robot files when the recording has them (`record` stores them); a scenario
+    /// given with `--scenario` (`given`) is named as the culprit, else the recording.
+    pub fn check_same_world_and_robot(
+        &self,
+        scenario: &Scenario,
+        given: Option<&Path>,
+    ) -> Result<(), ScenarioError> {
+        let sides = [
+            ("world", &scenario.world.name, &scenario.world_file),
+            ("robot", &scenario.robot.name, &scenario.robot_file),
+        ];
+        for (what, name, file) in sides {
+            let Some(recorded) = self.metadata.get(what) else {
+                continue; // a file from elsewhere: nothing to compare with
+            };
+            let recorded_file = self
+                .metadata
+                .get(&format!("{what}_file"))
+                .map_or(String::new(), |f| format!(" from {f}"));
+            let hash_then = self.metadata.get(&format!("{what}_hash"));
+            let hash_now = match hash_then {
+                Some(_) => Some(super::record::content_hash(&std::fs::read(file).map_err(
+                    |err| ScenarioError::Io {
+                        file: file.clone(),
+                        err,
+                    },
+                )?)),
+                None => None,
+            };
+            let same_content = hash_then.zip(hash_now.as_ref()).is_none_or(|(a, b)| a == b);
+            if recorded == name && same_content {
+                continue;
+            }
+            let contents = match (hash_then, &hash_now) {
+                (Some(a), Some(b)) if recorded == name => {
+                    format!(" (content hash {a} then, {b} in {} now)", file.display())
+                }
+                _ => String::new(),
+            };
+            let consequence = if what == "world" {
+                "replaying there would score the readings against another map"
+            } else {
+                "replaying with it would read the recorded odometry and sensors as another robot's"
+            };
+            return Err(match given {
+                Some(s) => bad(
+                    s,
+                    what,
+                    format!(
+                        "{what} {name:?} ({}) is not the {what} the recording {} was made with, {what} {recorded:?}{recorded_file}{contents}: {consequence}; name a scenario with the recording's {what}",
+                        file.display(),
+                        self.path.display()
+                    ),
+                ),
+                None => bad(
+                    &self.path,
+                    format!("metadata.{what}"),
+                    format!(
+                        "the recording was made with {what} {recorded:?}{recorded_file}, but the recorded scenario now loads {what} {name:?} ({}){contents}: the {what} changed since the recording was made; {consequence}",
+                        file.display()
+                    ),
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Refuses a replay whose localizers read a sensor the recording has no messages of:
+    /// they would run on odometry alone and report dead reckoning's errors as theirs.
+    pub fn check_sensor_topics(&self, scenario: &Scenario) -> Result<(), ScenarioError> {
+        for spec in &scenario.localizers {
+            for need in sensor_needs(spec, scenario) {
+                let found = self.channels.iter().any(|(id, c)| {
+                    let name_ok = match &need.sensor {
+                        Some(s) => c.topic.strip_prefix(need.prefix) == Some(s.as_str()),
+                        None => c.topic.starts_with(need.prefix),
+                    };
+                    name_ok && self.counts.get(id).is_some_and(|&n| n > 0)
+                });
+                if found {
+                    continue;
+                }
+                let topic = match &need.sensor {
+                    Some(s) => format!("{}{s}", need.prefix),
+                    None => format!("a {}<sensor> topic", need.prefix),
+                };
+                let mut with: Vec<&str> = self
+                    .channels
+                    .iter()
+                    .filter(|(id, _)| self.counts.get(id).is_some_and(|&n| n > 0))
+                    .map(|(_, c)| c.topic.as_str())
+                    .collect();
+                with.sort_unstable();
+                with.dedup();
+                return Err(bad(
+                    &self.path,
+                    "topics",
+                    format!(
+                        "localizer {:?} (kind {}) needs {} on {topic}, but the recording has no messages there (topics with messages: {}); replay other localizers (--localizer NAME=KIND) or record the sensor",
+                        spec.name,
+                        spec.kind,
+                        need.what,
+                        with.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -257,7 +585,7 @@ type RawMessage<'a> = (MessageHeader, Cow<'a, [u8]>);
 struct ReplayStream<'a> {
     rec: &'a Recording,
     channels: HashMap<u16, ChannelInfo>,
-    records: mcap::read::ChunkFlattener<'a>,
+    records: Records<'a>,
     pending: Option<RawMessage<'a>>,
     physics_hz: Option<f64>,
     use_wheels: bool,
@@ -276,8 +604,7 @@ impl<'a> ReplayStream<'a> {
         let has = |t: &str| rec.channels.values().any(|c| c.topic == t);
         Ok(ReplayStream {
             channels: rec.channels.clone(),
-            records: mcap::read::ChunkFlattener::new(&rec.bytes)
-                .map_err(|e| bad(&rec.path, "file", format!("corrupt MCAP: {e}")))?,
+            records: Records::new(&rec.bytes, &rec.path)?,
             pending: None,
             physics_hz: rec.meta_f64("physics_hz"),
             use_wheels: has(topics::ODOM_WHEELS),
@@ -295,7 +622,7 @@ impl<'a> ReplayStream<'a> {
     /// The next message record, taking schema and channel records on the way.
     fn pull(&mut self) -> Result<Option<RawMessage<'a>>, ScenarioError> {
         for r in self.records.by_ref() {
-            let r = r.map_err(|e| bad(&self.rec.path, "file", format!("corrupt MCAP: {e}")))?;
+            let (_, r) = r?;
             match r {
                 Record::Message { header, data } => return Ok(Some((header, data))),
                 Record::Channel(c) if !self.channels.contains_key(&c.id) => {
@@ -545,7 +872,9 @@ pub fn replay_recording(
 }
 
 /// Replays `rec` under `scenario` as given (its localizers and expectations), with the
-/// recording's seed and events. `on_tick`, when given, sees every instant before the
+/// recording's seed and events. Take `scenario` from [`Recording::scenario`], which checks
+/// that its world and robot are the recording's; its localizers' sensor topics are checked
+/// here. `on_tick`, when given, sees every instant before the
 /// localizers get its readings (`score` sets the clock of foreign estimates from it).
 pub fn replay_scenario(
     rec: &Recording,
@@ -567,6 +896,7 @@ pub fn replay_scenario(
             .map_err(|e| bad(&rec.path, "metadata.events", e))?,
         None => scenario.events.clone(),
     };
+    rec.check_sensor_topics(&scenario)?;
     let base_link = rec
         .metadata
         .get("base_link")
@@ -724,6 +1054,55 @@ mod tests {
                 ],
             }),
         ]
+    }
+
+    #[test]
+    fn a_write_failure_names_the_output_and_leaves_no_partial_file() {
+        let path = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
+        let scenario = Scenario::load(&path).unwrap();
+        let dir = std::env::temp_dir().join(format!("atrium-write-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("run.mcap");
+        let partial = dir.join("run.mcap.partial");
+        std::fs::write(&partial, "left by a killed run").unwrap();
+        let mut recorder = Recorder::create(&out, &scenario, 9).unwrap();
+        // The stale partial file was replaced by the new recording.
+        assert_ne!(std::fs::read(&partial).unwrap(), b"left by a killed run");
+        let ticks: Vec<(Tick, Vec<Reading>)> = (1..=2u64)
+            .map(|k| {
+                let tick = Tick {
+                    t: k as f64 / 200.0,
+                    truth: Some(Pose2::new(2.0, 20.0, 0.0)),
+                    score: true,
+                    events: Vec::new(),
+                };
+                (tick, readings_at(k))
+            })
+            .collect();
+        let run = LocalizerRegistry::with_builtins()
+            .run_stream(
+                &scenario,
+                9,
+                &mut VecStream(ticks.into_iter()),
+                &[],
+                RunOptions {
+                    observer: Some(&mut recorder),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        // The final name is taken meanwhile by a folder with a file in it: renaming fails.
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("x"), "x").unwrap();
+        let e = recorder.finish(&run).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("cannot write {}", out.display())),
+            "{e}"
+        );
+        assert!(!e.contains("partial") && !e.contains("cannot read"), "{e}");
+        assert!(!partial.exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

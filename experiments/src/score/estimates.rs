@@ -368,13 +368,12 @@ fn read_mcap(path: &Path, bytes: &[u8], topic: Option<&str>) -> Result<Estimates
             "truncated MCAP file: it does not end with the footer's magic bytes",
         ));
     }
-    let corrupt = |e: mcap::McapError| bad(path, "file", format!("corrupt MCAP: {e}"));
-    // Topic -> (schema, encoding, rows) for every topic, rows for pose topics.
+    // Topic -> (schema, encoding, rows) for every topic, rows for pose topics. The checked
+    // reader: CRCs, record lengths and chunk sizes are verified before use.
     let mut seen: BTreeMap<String, (String, String, Vec<Row>)> = BTreeMap::new();
-    for m in mcap::MessageStream::new(bytes).map_err(corrupt)? {
-        let m = m.map_err(corrupt)?;
-        let ch = &m.channel;
-        let schema = ch.schema.as_ref().map_or("", |s| s.name.as_str());
+    for m in crate::dataset::container::Messages::new(bytes, path)? {
+        let (_, ch, header, data) = m?;
+        let schema = ch.schema.as_str();
         let entry = seen
             .entry(ch.topic.clone())
             .or_insert_with(|| (schema.to_string(), ch.message_encoding.clone(), Vec::new()));
@@ -388,11 +387,11 @@ fn read_mcap(path: &Path, bytes: &[u8], topic: Option<&str>) -> Result<Estimates
         let at = format!("topic {}, message {}", ch.topic, entry.2.len() + 1);
         let fail = |e: &dyn std::fmt::Display| bad(path, &at, format!("cannot be decoded: {e}"));
         let (t, pose, cov) = if schema == POSE_IN_FRAME {
-            let p = fg::PoseInFrame::decode(&m.data[..]).map_err(|e| fail(&e))?;
-            let ns = p.timestamp.map_or(m.log_time, |t| t.total_nanos());
+            let p = fg::PoseInFrame::decode(&data[..]).map_err(|e| fail(&e))?;
+            let ns = p.timestamp.map_or(header.log_time, |t| t.total_nanos());
             (ns as f64 / 1e9, codec::pose2_of(p.pose.as_ref()), None)
         } else {
-            let r = cdr::decode(schema, &m.data).map_err(|e| fail(&e))?;
+            let r = cdr::decode(schema, &data).map_err(|e| fail(&e))?;
             (r.stamp, r.pose, r.covariance)
         };
         entry.2.push(Row { at, t, pose, cov });
