@@ -67,6 +67,7 @@ fn check_out(dir: &Path, estimates: &Path, name: Option<&str>) -> anyhow::Result
 pub fn score_command(args: ScoreArgs) -> anyhow::Result<bool> {
     if let Some(dir) = &args.out {
         check_out(dir, &args.estimates, args.name.as_deref())?;
+        output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
     }
     let bar = (!args.json && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(1000);

@@ -53,6 +53,20 @@ pub struct NodeExperimentSettings {
     pub calibration_spread: f64,
 }
 
+/// The most runs one node table may ask for: each is a whole scenario run (seconds to
+/// minutes), so 1,000 is already a day of computing, and the per-run tables are allocated up
+/// front.
+pub const MAX_RUNS: usize = 1000;
+
+fn check_runs(runs: usize) -> Result<(), String> {
+    if runs == 0 || runs > MAX_RUNS {
+        return Err(format!(
+            "{runs} runs: must be between 1 and the limit of {MAX_RUNS}"
+        ));
+    }
+    Ok(())
+}
+
 impl Default for NodeExperimentSettings {
     fn default() -> Self {
         Self {
@@ -89,13 +103,7 @@ pub fn parse_settings(
             "needs a node route ([route] controller = \"nodes\")",
         ));
     }
-    if s.runs == 0 {
-        return Err(ScenarioError::field(
-            file,
-            "node_experiment.runs",
-            "must be at least 1",
-        ));
-    }
+    check_runs(s.runs).map_err(|msg| ScenarioError::field(file, "node_experiment.runs", msg))?;
     match localizers.iter().find(|l| l.name == s.localizer) {
         Some(l) if l.kind == "landmark_filter" => {}
         _ => {
@@ -326,11 +334,16 @@ pub fn run_experiment(
         .node_route
         .as_ref()
         .ok_or_else(|| ScenarioError::field(file, "route.controller", "not a node route"))?;
-    let runs = runs.unwrap_or(settings.runs);
-    if runs == 0 {
-        return Err(ScenarioError::field(file, "runs", "must be at least 1"));
-    }
-    let seeds: Vec<u64> = (0..runs as u64).map(|i| scenario.seed + i).collect();
+    let runs = match runs {
+        Some(runs) => {
+            check_runs(runs).map_err(|msg| ScenarioError::field(file, "--runs", msg))?;
+            runs
+        }
+        None => settings.runs,
+    };
+    let seeds: Vec<u64> = (0..runs as u64)
+        .map(|i| scenario.seed.wrapping_add(i))
+        .collect();
     let spec = scenario
         .localizers
         .iter()

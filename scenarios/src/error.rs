@@ -5,6 +5,9 @@ use std::path::PathBuf;
 pub enum ScenarioError {
     #[error("{file}: cannot read file: {err}")]
     Io { file: PathBuf, err: std::io::Error },
+    /// An output that could not be written (the final path, never a temporary name).
+    #[error("{file}: cannot write file: {err}")]
+    Write { file: PathBuf, err: std::io::Error },
     #[error("{file}: malformed TOML: {msg}")]
     Parse { file: PathBuf, msg: String },
     #[error("{file}: {field}: {msg}")]

@@ -24,6 +24,54 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     result
 }
 
+/// Checks, before a long run, that `dir` can be written: it is a folder (or can be created
+/// as one: its nearest existing ancestor is a folder) and a file can be created in it.
+/// Creates nothing that is not removed again, so a refused run leaves no trace.
+pub fn check_writable_dir(dir: &Path, what: &str) -> Result<(), String> {
+    let mut existing = dir;
+    while !existing.exists() {
+        match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => existing = p,
+            _ => {
+                existing = Path::new(".");
+                break;
+            }
+        }
+    }
+    if !existing.is_dir() {
+        return Err(format!(
+            "{what}: {}: {} is not a folder",
+            dir.display(),
+            existing.display()
+        ));
+    }
+    let probe = existing.join(format!(".atrium-write-probe.{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(format!(
+            "{what}: {}: cannot write in {}: {e}",
+            dir.display(),
+            existing.display()
+        )),
+    }
+}
+
+/// [`check_writable_dir`] for the folder an output file `path` goes into; `path` itself must
+/// not be a folder.
+pub fn check_writable_file(path: &Path, what: &str) -> Result<(), String> {
+    if path.is_dir() {
+        return Err(format!(
+            "{what}: {} is a folder, not a file",
+            path.display()
+        ));
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    check_writable_dir(parent.unwrap_or(Path::new(".")), what)
+}
+
 /// Writes a run's files into `dir`: TUM trajectories (`ground_truth.tum`, `<localizer>.tum`),
 /// `metrics.json` (the `--json` document) and a picture per localizer
 /// (`trajectory_<localizer>.svg` / `.png`), plus, for EKF-SLAM localizers, the covariance
@@ -40,7 +88,7 @@ pub fn write_run(
     let mut written = Vec::new();
     let mut put = |name: String, bytes: Vec<u8>| -> Result<(), String> {
         let p = dir.join(name);
-        write_atomic(&p, &bytes).map_err(|e| format!("{}: {e}", p.display()))?;
+        write_atomic(&p, &bytes).map_err(|e| format!("{}: cannot write file: {e}", p.display()))?;
         written.push(p);
         Ok(())
     };
@@ -135,6 +183,33 @@ pub fn refuse_overwriting_inputs(output: &Path, inputs: &[&Path]) -> Result<(), 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn writability_is_checked_without_leaving_anything_behind() {
+        let dir = std::env::temp_dir().join(format!("atrium-writable-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A folder not yet made, under a writable one: fine, and still not made.
+        let new = dir.join("a/b");
+        check_writable_dir(&new, "--out").unwrap();
+        assert!(!dir.join("a").exists());
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            0,
+            "the probe was left"
+        );
+        // Under a file: refused, naming the file.
+        let file = dir.join("f.txt");
+        std::fs::write(&file, b"x").unwrap();
+        let e = check_writable_dir(&file.join("run"), "--out").unwrap_err();
+        assert!(
+            e.starts_with("--out: ") && e.ends_with("f.txt is not a folder"),
+            "{e}"
+        );
+        let e = check_writable_file(&dir, "-o").unwrap_err();
+        assert!(e.contains("is a folder, not a file"), "{e}");
+        check_writable_file(&dir.join("out.mcap"), "-o").unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn writes_whole_file_and_leaves_no_temporary() {
