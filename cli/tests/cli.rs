@@ -344,3 +344,53 @@ fn export_map_writes_ros_and_vector_maps_with_glass_optional() {
     assert_bad_input(&bad, &["resolution"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn check_runs_every_seed_and_exits_by_the_pass_count() {
+    // MCL's 0.2 m median holds on every seed: exit 0, with one row per expectation.
+    let o = atrium(&[
+        "check",
+        data("short.toml").to_str().unwrap(),
+        "--seeds",
+        "1..3",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["passed_seeds"], 3);
+    assert_eq!(v["seeds"], serde_json::json!([1, 2, 3]));
+    assert_eq!(v["expectations"][0]["held"], 3);
+    // A bound nothing meets fails on every seed: exit 1, each seed's failure listed.
+    let tight = variant("check_tight", "median_max = 0.2", "median_max = 0.0001");
+    let o = atrium(&["check", tight.to_str().unwrap(), "--seeds", "1,2"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("passed on 0 of 2 seeds (needs 2): FAIL"),
+        "{text}"
+    );
+    assert!(
+        text.contains("seed 2 failed: mcl: position_error.median"),
+        "{text}"
+    );
+    // A claim dead reckoning meets too is no claim: the baseline check fails it.
+    let weak = variant(
+        "check_weak",
+        "median_max = 0.2",
+        "median_max = 5.0\nbaselines = [\"odometry\"]",
+    );
+    let o = atrium(&["check", weak.to_str().unwrap(), "--seeds", "1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("claims also met by odometry"));
+    // Bad seed ranges are bad input.
+    for bad in ["5..1", "0..100000", "x"] {
+        let o = atrium(&[
+            "check",
+            data("short.toml").to_str().unwrap(),
+            "--seeds",
+            bad,
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--seeds"), "{}", stderr(&o));
+    }
+}

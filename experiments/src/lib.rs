@@ -12,6 +12,7 @@ pub mod dataset;
 pub mod inspect;
 pub mod node_experiment;
 pub mod score;
+pub mod seed_check;
 pub mod sweep;
 
 pub use sweep::end_error;

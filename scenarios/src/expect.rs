@@ -11,6 +11,8 @@
 //! - `[[expect.L.ratios]] numerator = "<path>", denominator = "<path>", min = .., max = ..`
 //! - `[[expect.L.compare]] metric = "<path>", other = "<localizer>", max_ratio = .., min_ratio = ..`
 //! - `[expect.L.slam]`: EKF-SLAM map and covariance-monitor checks, documented in `slam.rs`
+//! - `baselines = ["<localizer>", ..]`: trivial localizers of the same run (dead reckoning, a
+//!   chooser's single member) that must fail at least one of L's other expectations
 //!
 //! A metric path is `position_error.<stat>`, `heading_error.<stat>`, `final_position_error`,
 //! `converged_after_s`, `after_convergence.<stat>`, `recovered_after_s`, `mean_nees_xy`,
@@ -45,6 +47,10 @@ pub enum Expectation {
         bound: Bound,
         limit: f64,
     },
+    /// `baselines = ["odometry"]`: this localizer's other expectations, evaluated on the
+    /// trivial localizer `other` of the same run, must not all hold. A claim a baseline also
+    /// meets says nothing about the localizer.
+    Baseline { other: String },
 }
 
 /// What a metric path resolves against.
@@ -250,6 +256,27 @@ pub fn parse_expectations(
                 "slam" => {
                     crate::slam::check_table(v, file, &field)?;
                 }
+                "baselines" => {
+                    let names = v.as_array().ok_or_else(|| {
+                        ScenarioError::field(file, &field, "must be an array of localizer names")
+                    })?;
+                    for (i, name) in names.iter().enumerate() {
+                        let f = format!("{field}[{i}]");
+                        let other = name.as_str().ok_or_else(|| {
+                            ScenarioError::field(file, &f, "must be a localizer name")
+                        })?;
+                        if other == loc || !scenario.localizers.iter().any(|l| l.name == other) {
+                            return Err(ScenarioError::field(
+                                file,
+                                f,
+                                format!("no other localizer named {other:?} in this scenario"),
+                            ));
+                        }
+                        list.push(Expectation::Baseline {
+                            other: other.to_string(),
+                        });
+                    }
+                }
                 "converged_within_s" => list.push(Expectation::Bound {
                     metric: "converged_after_s".into(),
                     bound: Bound::Max,
@@ -330,63 +357,105 @@ pub fn evaluate<'a>(
     own: &MetricSource,
     lookup: &dyn Fn(&str) -> Option<MetricSource<'a>>,
 ) -> Vec<ExpectationResult> {
-    expectations
+    let all: Vec<&Expectation> = expectations.collect();
+    let claims: Vec<&Expectation> = all
+        .iter()
+        .filter(|e| !matches!(e, Expectation::Baseline { .. }))
+        .copied()
+        .collect();
+    all.iter()
         .map(|e| match e {
-            Expectation::Bound {
-                metric,
-                bound,
-                limit,
-            } => {
-                let value = metric_value(own, metric);
+            Expectation::Baseline { other } => {
+                // How many of the claims the baseline meets as well; all of them: no claim.
+                let met = lookup(other).map(|src| {
+                    claims
+                        .iter()
+                        .filter(|c| evaluate_one(c, &src, lookup).passed)
+                        .count()
+                });
+                let limit = claims.len() as f64 - 1.0;
+                let value = met.map(|m| m as f64);
                 ExpectationResult {
-                    metric: metric.clone(),
-                    bound: *bound,
-                    limit: *limit,
+                    metric: format!("claims also met by {other}"),
+                    bound: Bound::Max,
+                    limit,
                     value,
-                    passed: check_bound(value, *bound, *limit),
+                    passed: check_bound(value, Bound::Max, limit),
                 }
             }
-            Expectation::Ratio {
-                numerator,
-                denominator,
-                bound,
-                limit,
-            } => {
-                let value = match (metric_value(own, numerator), metric_value(own, denominator)) {
-                    (Some(n), Some(d)) if d > 0.0 => Some(n / d),
-                    _ => None,
-                };
-                ExpectationResult {
-                    metric: format!("{numerator} / {denominator}"),
-                    bound: *bound,
-                    limit: *limit,
-                    value,
-                    passed: check_bound(value, *bound, *limit),
-                }
-            }
-            Expectation::Compare {
-                metric,
-                other,
-                bound,
-                limit,
-            } => {
-                let value = match (
-                    metric_value(own, metric),
-                    lookup(other).and_then(|o| metric_value(&o, metric)),
-                ) {
-                    (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-                    _ => None,
-                };
-                ExpectationResult {
-                    metric: format!("{metric} / {other}.{metric}"),
-                    bound: *bound,
-                    limit: *limit,
-                    value,
-                    passed: check_bound(value, *bound, *limit),
-                }
-            }
+            claim => evaluate_one(claim, own, lookup),
         })
         .collect()
+}
+
+fn evaluate_one<'a>(
+    e: &Expectation,
+    own: &MetricSource,
+    lookup: &dyn Fn(&str) -> Option<MetricSource<'a>>,
+) -> ExpectationResult {
+    match e {
+        Expectation::Bound {
+            metric,
+            bound,
+            limit,
+        } => {
+            let value = metric_value(own, metric);
+            ExpectationResult {
+                metric: metric.clone(),
+                bound: *bound,
+                limit: *limit,
+                value,
+                passed: check_bound(value, *bound, *limit),
+            }
+        }
+        Expectation::Ratio {
+            numerator,
+            denominator,
+            bound,
+            limit,
+        } => {
+            let value = match (metric_value(own, numerator), metric_value(own, denominator)) {
+                (Some(n), Some(d)) if d > 0.0 => Some(n / d),
+                _ => None,
+            };
+            ExpectationResult {
+                metric: format!("{numerator} / {denominator}"),
+                bound: *bound,
+                limit: *limit,
+                value,
+                passed: check_bound(value, *bound, *limit),
+            }
+        }
+        Expectation::Compare {
+            metric,
+            other,
+            bound,
+            limit,
+        } => {
+            let value = match (
+                metric_value(own, metric),
+                lookup(other).and_then(|o| metric_value(&o, metric)),
+            ) {
+                (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+                _ => None,
+            };
+            ExpectationResult {
+                metric: format!("{metric} / {other}.{metric}"),
+                bound: *bound,
+                limit: *limit,
+                value,
+                passed: check_bound(value, *bound, *limit),
+            }
+        }
+        // Baselines are judged by `evaluate`, over the other claims.
+        Expectation::Baseline { other } => ExpectationResult {
+            metric: format!("claims also met by {other}"),
+            bound: Bound::Max,
+            limit: f64::NAN,
+            value: None,
+            passed: false,
+        },
+    }
 }
 
 #[cfg(test)]
@@ -439,5 +508,57 @@ mod tests {
         assert!(!r[1].passed);
         assert!(!r[2].passed && r[2].value.is_none());
         assert!(r[3].passed && (r[3].value.unwrap() - 3.0).abs() < 1e-9);
+    }
+
+    fn metrics_of(errors: &[f64]) -> LocalizerMetrics {
+        let samples: Vec<Sample> = errors
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| Sample {
+                t: i as f64,
+                position_error: e,
+                heading_error: 0.01,
+                nees_xy: None,
+            })
+            .collect();
+        score(&samples, &vec![None; samples.len()], 0.5, 0.0).unwrap()
+    }
+
+    #[test]
+    fn a_claim_the_baseline_also_meets_fails() {
+        let good = metrics_of(&[0.01, 0.02, 0.03]);
+        let drift = metrics_of(&[0.0, 0.5, 3.0]);
+        let src = |m| MetricSource {
+            metrics: m,
+            recoveries: &[],
+        };
+        let claims = |median: f64| {
+            vec![
+                Expectation::Bound {
+                    metric: "position_error.median".into(),
+                    bound: Bound::Max,
+                    limit: median,
+                },
+                Expectation::Bound {
+                    metric: "position_error.min".into(),
+                    bound: Bound::Max,
+                    limit: 0.05,
+                },
+                Expectation::Baseline {
+                    other: "odometry".into(),
+                },
+            ]
+        };
+        let lookup = |name: &str| (name == "odometry").then(|| src(&drift));
+        // A median bound of 0.1 m: dead reckoning (median 0.5 m) fails it, so the claim holds.
+        let tight = claims(0.1);
+        let r = evaluate(tight.iter(), &src(&good), &lookup);
+        assert!(r.iter().all(|r| r.passed), "{r:?}");
+        assert_eq!((r[2].value, r[2].limit), (Some(1.0), 1.0));
+        // A median bound of 1 m: dead reckoning meets both claims; the baseline check fails.
+        let loose = claims(1.0);
+        let r = evaluate(loose.iter(), &src(&good), &lookup);
+        assert!(r[0].passed && r[1].passed && !r[2].passed, "{r:?}");
+        assert_eq!(r[2].metric, "claims also met by odometry");
     }
 }

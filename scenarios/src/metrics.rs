@@ -74,29 +74,38 @@ impl ErrorStats {
     }
 }
 
-/// The first time from which the error stays at or below `threshold` for at least `hold_s`
-/// (or until the end of the run, if that comes sooner after at least one sample). Scanned
-/// from `from_t` on.
+/// When the run converged, scanned from `from_t` on: the first instant from which the error
+/// stays at or below `threshold` for at least `hold_s` and afterwards never exceeds it for
+/// longer than `hold_s`. `None` if there is no such instant: a stretch below the threshold
+/// that is shorter than the hold (also at the very end of the run) does not count, and a
+/// later excursion longer than the hold undoes an earlier convergence (dead reckoning is
+/// below the threshold for its first seconds, then drifts off for good: it never converged).
 pub fn converged_after(
     samples: &[Sample],
     threshold: f64,
     hold_s: f64,
     from_t: f64,
 ) -> Option<f64> {
-    let mut start: Option<f64> = None;
+    let mut converged: Option<f64> = None;
+    let mut below_since: Option<f64> = None;
+    let mut above_since: Option<f64> = None;
     for s in samples.iter().filter(|s| s.t >= from_t) {
+        // NaN counts as above: an estimate that is not a number has not converged.
         if s.position_error <= threshold {
-            let t0 = *start.get_or_insert(s.t);
-            if s.t - t0 >= hold_s {
-                return Some(t0);
+            above_since = None;
+            let t0 = *below_since.get_or_insert(s.t);
+            if converged.is_none() && s.t - t0 >= hold_s {
+                converged = Some(t0);
             }
         } else {
-            start = None;
+            below_since = None;
+            let t0 = *above_since.get_or_insert(s.t);
+            if s.t - t0 > hold_s {
+                converged = None;
+            }
         }
     }
-    // Below the threshold at the end of the run, but for less than hold_s: only counts if
-    // the run ended, which it did.
-    start
+    converged
 }
 
 /// Everything measured for one localizer over one run.
@@ -215,11 +224,30 @@ mod tests {
         // Below 0.3 from t = 3 on, held for 3 s.
         assert_eq!(converged_after(&s, 0.3, 2.0, 0.0), Some(3.0));
         assert_eq!(converged_after(&samples(&[1.0, 1.0]), 0.3, 2.0, 0.0), None);
-        // Below at the end but shorter than the hold: the run ended converged.
+        // Below at the end but shorter than the hold: not converged.
+        assert_eq!(converged_after(&samples(&[1.0, 0.1]), 0.3, 2.0, 0.0), None);
         assert_eq!(
-            converged_after(&samples(&[1.0, 0.1]), 0.3, 2.0, 0.0),
+            converged_after(&samples(&[1.0, 0.1, 0.1, 0.1]), 0.3, 2.0, 0.0),
             Some(1.0)
         );
+    }
+
+    #[test]
+    fn a_later_long_excursion_undoes_convergence() {
+        // Dead reckoning: below for the first seconds, then off for good.
+        let drift = samples(&[0.0, 0.1, 0.2, 0.25, 0.4, 0.8, 1.5, 3.0, 6.0]);
+        assert_eq!(converged_after(&drift, 0.3, 2.0, 0.0), None);
+        // A 2 s excursion (not longer than the hold) keeps it; 3 s undoes it, and the
+        // stretch after it converges anew.
+        let brief = samples(&[0.1, 0.1, 0.1, 0.9, 0.9, 0.9, 0.1, 0.1]);
+        assert_eq!(converged_after(&brief, 0.3, 2.0, 0.0), Some(0.0));
+        let long = samples(&[0.1, 0.1, 0.1, 0.9, 0.9, 0.9, 0.9, 0.1, 0.1, 0.1]);
+        assert_eq!(converged_after(&long, 0.3, 2.0, 0.0), Some(7.0));
+        // NaN errors are never converged.
+        let nan = samples(&[0.1, 0.1, 0.1, f64::NAN, f64::NAN, f64::NAN, f64::NAN]);
+        assert_eq!(converged_after(&nan, 0.3, 2.0, 0.0), None);
+        // Scanning starts at `from_t` (recovery after an event).
+        assert_eq!(converged_after(&long, 0.3, 2.0, 4.0), Some(7.0));
     }
 
     #[test]

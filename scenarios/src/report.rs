@@ -48,6 +48,7 @@ pub fn to_json(r: &RunResult) -> Value {
         .collect();
     json!({
         "scenario": r.scenario,
+        "description": r.description,
         "seed": r.seed,
         "world": r.world,
         "robot": r.robot,
@@ -91,6 +92,9 @@ pub fn to_text(r: &RunResult) -> String {
             " (route NOT completed)"
         }
     );
+    if !r.description.is_empty() {
+        let _ = writeln!(s, "{}", r.description);
+    }
     let _ = writeln!(s, "\nposition error (m)");
     let _ = writeln!(
         s,
