@@ -64,9 +64,10 @@ fn heat_maps_have_one_cell_per_axis_value_and_hotter_is_larger() {
         name: "t".into(),
         axis_paths: vec!["a".into(), "b".into(), "c".into()],
         rows,
+        layout: None,
         dropped_partial: false,
     };
-    let pics = heatmap::heatmaps(&results, &axes).unwrap();
+    let pics = heatmap::heatmaps(&results, &axes).unwrap().pictures;
     let names: Vec<&str> = pics.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["heatmap_mcl_c=p.png", "heatmap_mcl_c=q.png"]);
     let q = Pixmap::decode_png(&pics[1].1).expect("valid PNG");
@@ -97,7 +98,7 @@ fn heat_maps_have_one_cell_per_axis_value_and_hotter_is_larger() {
         rows: vec![row(0, 0, "w", 1.0), row(2, 0, "w", 2.0)],
         ..results
     };
-    let pics = heatmap::heatmaps(&r1, &strip).unwrap();
+    let pics = heatmap::heatmaps(&r1, &strip).unwrap().pictures;
     assert_eq!(pics.len(), 1);
     let p = Pixmap::decode_png(&pics[0].1).unwrap();
     let title = heatmap::title("w", &[]);

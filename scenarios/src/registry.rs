@@ -19,9 +19,9 @@ use crate::runner::{run_localizers, ReadingStream, RunOptions, RunResult, SimStr
 use crate::scenario::{Event, LocalizerSpec, Scenario};
 use atrium_localization::Localizer;
 use serde::de::DeserializeOwned;
-use std::collections::BTreeMap;
-use std::path::Path;
-use std::sync::Arc;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 /// What a factory gets to build one localizer of a scenario.
 pub struct BuildContext<'a> {
@@ -67,13 +67,22 @@ impl BuildContext<'_> {
             .map_err(|e: toml::de::Error| self.error("", e.message().to_string()))
     }
 
-    /// A path given in this localizer's table, relative to the scenario file.
+    /// A path given in this localizer's table, relative to the scenario file. A registry
+    /// made by [`LocalizerRegistry::recording_paths`] remembers it: a sweep hashes the
+    /// files its trials read, so that results of changed inputs are never mixed.
     pub fn path(&self, rel: &str) -> std::path::PathBuf {
-        self.scenario
+        let p = self
+            .scenario
             .file
             .parent()
             .unwrap_or_else(|| Path::new("."))
-            .join(rel)
+            .join(rel);
+        if let Some(log) = &self.registry.paths {
+            log.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(p.clone());
+        }
+        p
     }
 
     /// Builds another localizer of the same run (a chooser's member) through the registry.
@@ -121,6 +130,8 @@ pub enum RegistryError {
 #[derive(Clone, Default)]
 pub struct LocalizerRegistry {
     kinds: BTreeMap<String, Arc<dyn LocalizerFactory>>,
+    /// The paths [`BuildContext::path`] resolved, when recording (shared by clones).
+    paths: Option<Arc<Mutex<BTreeSet<PathBuf>>>>,
 }
 
 impl std::fmt::Debug for LocalizerRegistry {
@@ -154,6 +165,27 @@ impl LocalizerRegistry {
         }
         self.kinds.insert(kind.to_string(), Arc::new(factory));
         Ok(self)
+    }
+
+    /// A clone of this registry (the same kinds) that records every path its factories
+    /// resolve with [`BuildContext::path`], from now on; [`Self::recorded_paths`] lists them.
+    pub fn recording_paths(&self) -> LocalizerRegistry {
+        LocalizerRegistry {
+            kinds: self.kinds.clone(),
+            paths: Some(Arc::default()),
+        }
+    }
+
+    /// The paths recorded since [`Self::recording_paths`] made this registry (sorted; none
+    /// when it does not record).
+    pub fn recorded_paths(&self) -> Vec<PathBuf> {
+        self.paths.as_ref().map_or_else(Vec::new, |log| {
+            log.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .iter()
+                .cloned()
+                .collect()
+        })
     }
 
     /// The registered kinds, sorted.
@@ -353,5 +385,30 @@ mod tests {
         assert_eq!(mine.expectations.len(), 1);
         assert!(!mine.passed);
         assert!(!result.passed());
+    }
+
+    #[test]
+    fn a_recording_registry_lists_the_paths_its_factories_resolved() {
+        fn reads_a_file(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError> {
+            let _ = ctx.path("weights.bin");
+            dead_reckoning(ctx)
+        }
+        let mut r = LocalizerRegistry::empty();
+        r.register("mine", reads_a_file).unwrap();
+        let mut s = corridor();
+        s.localizers.clear();
+        s.expect = toml::Table::new();
+        s.add_localizer("m", "mine", toml::Table::new(), toml::Table::new())
+            .unwrap();
+        r.build_all(&s, 1).unwrap();
+        assert!(
+            r.recorded_paths().is_empty(),
+            "only a recording clone records"
+        );
+        let rec = r.recording_paths();
+        rec.build_all(&s, 1).unwrap();
+        let dir = s.file.parent().unwrap();
+        assert_eq!(rec.recorded_paths(), [dir.join("weights.bin")]);
+        assert!(r.recorded_paths().is_empty());
     }
 }

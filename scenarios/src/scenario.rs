@@ -255,6 +255,86 @@ pub struct Scenario {
     pub appearance_experiment: Option<toml::Table>,
     /// The scenario file's text, kept for dataset metadata.
     pub text: String,
+    /// Every file this scenario was read from: the scenario file, its world, its robot and
+    /// the robot's sensor file. A sweep hashes them (with the files its localizers name), so
+    /// results are never mixed across changed inputs.
+    pub input_files: Vec<PathBuf>,
+}
+
+/// Every sensor reads at most once per physics step: a faster rate is refused here, under the
+/// scenario's own name for the sensor (`sensors.laser.rate_hz`), rather than by the
+/// simulator under its internal index when the run starts.
+#[allow(clippy::too_many_arguments)]
+fn check_sensor_rates(
+    file: &Path,
+    physics_hz: f64,
+    odometry: &OdometrySpec,
+    lasers: &[LaserSpec],
+    landmark_detectors: &[atrium_robots::LandmarkDetectorSpec],
+    depth_cameras: &[atrium_robots::DepthCameraSpec],
+    wifi: Option<&atrium_robots::WifiSpec>,
+    cameras: &atrium_sim::camera_stream::CameraSensors,
+) -> Result<(), ScenarioError> {
+    let mut rates = vec![("odometry.rate_hz".to_string(), odometry.rate_hz)];
+    let named =
+        |prefix: &str, name: &str, key: &str, hz: f64| (format!("{prefix}{name}.{key}"), hz);
+    rates.extend(
+        lasers
+            .iter()
+            .map(|l| named("sensors.", &l.name, "rate_hz", l.rate_hz)),
+    );
+    rates.extend(
+        landmark_detectors
+            .iter()
+            .map(|d| ("landmark_detector.rate_hz".to_string(), d.rate_hz)),
+    );
+    rates.extend(
+        depth_cameras
+            .iter()
+            .map(|d| named("depth_cameras.", &d.name, "rate_hz", d.rate_hz)),
+    );
+    rates.extend(wifi.map(|w| ("wifi.scan_period_s".to_string(), 1.0 / w.scan_period_s)));
+    rates.extend(
+        cameras
+            .cameras
+            .iter()
+            .map(|c| named("sensors.", &c.camera.name, "rate_hz", c.rate_hz)),
+    );
+    rates.extend(
+        cameras
+            .stereo
+            .iter()
+            .map(|c| named("sensors.", &c.stereo.camera.name, "rate_hz", c.rate_hz)),
+    );
+    rates.extend(
+        cameras
+            .ceiling
+            .iter()
+            .map(|c| named("sensors.", &c.name, "rate_hz", c.rate_hz)),
+    );
+    rates.extend(
+        cameras
+            .omni
+            .iter()
+            .map(|c| named("sensors.", &c.name, "rate_hz", c.rate_hz)),
+    );
+    for (field, hz) in rates {
+        if hz > physics_hz {
+            let what = if field.ends_with("scan_period_s") {
+                format!("a scan every {} s", 1.0 / hz)
+            } else {
+                format!("{hz} Hz")
+            };
+            return Err(ScenarioError::field(
+                file,
+                field,
+                format!(
+                    "{what} is faster than physics_hz = {physics_hz} Hz: a sensor reads at most once per physics step"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn check_finite(file: &Path, field: &str, values: &[f64]) -> Result<(), ScenarioError> {
@@ -408,6 +488,22 @@ fn check_inside(file: &Path, field: &str, world: &World, p: [f64; 2]) -> Result<
     ))
 }
 
+/// The largest heading a pose may be written with, rad (about 16 turns): a larger value is
+/// a unit mistake, and beyond ~1e38 it no longer fits the simulator's f32 rotations.
+pub const MAX_HEADING_RAD: f64 = 100.0;
+
+/// A pose's heading, checked against [`MAX_HEADING_RAD`] and wrapped into (−π, π].
+fn heading(file: &Path, field: &str, theta: f64) -> Result<f64, ScenarioError> {
+    if theta.abs() > MAX_HEADING_RAD {
+        return Err(ScenarioError::field(
+            file,
+            field,
+            format!("heading {theta} rad is beyond the limit of ±{MAX_HEADING_RAD} rad"),
+        ));
+    }
+    Ok(atrium_robots::normalize_angle(theta))
+}
+
 impl Scenario {
     /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
     /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
@@ -498,7 +594,11 @@ impl Scenario {
             &world,
             [raw.start.pose[0], raw.start.pose[1]],
         )?;
-        let start = Pose2::new(raw.start.pose[0], raw.start.pose[1], raw.start.pose[2]);
+        let start = Pose2::new(
+            raw.start.pose[0],
+            raw.start.pose[1],
+            heading(file, "start.pose", raw.start.pose[2])?,
+        );
         let node_route = crate::node_route::parse_route(
             file,
             &world,
@@ -605,6 +705,10 @@ impl Scenario {
         } else {
             RobotSensors::default()
         };
+        let mut input_files = vec![file.to_path_buf(), world_file.clone(), robot_file.clone()];
+        if sensor_file.exists() {
+            input_files.push(sensor_file.clone());
+        }
         let odometry = match &raw.odometry {
             Some(t) => apply_overrides(&robot_sensors.odometry, t, file, "odometry")?,
             None => robot_sensors.odometry,
@@ -641,12 +745,11 @@ impl Scenario {
                 table
                     .entry("name")
                     .or_insert_with(|| toml::Value::String(name.clone()));
-                let spec =
-                    LaserSpec::from_table(&table, &field).map_err(|msg| ScenarioError::Field {
-                        file: file.to_path_buf(),
-                        field: field.clone(),
-                        msg,
-                    })?;
+                let spec = LaserSpec::from_table(&table, &field).map_err(|msg| {
+                    // The message starts with the field path; split it off for the error.
+                    let (f, m) = msg.split_once(": ").unwrap_or((&field, &msg));
+                    ScenarioError::field(file, f, m)
+                })?;
                 match existing {
                     Some(i) => lasers[i] = spec,
                     None => lasers.push(spec),
@@ -722,6 +825,17 @@ impl Scenario {
                 Some(spec)
             }
         };
+
+        check_sensor_rates(
+            file,
+            raw.physics_hz,
+            &odometry,
+            &lasers,
+            &landmark_detectors,
+            &depth_cameras,
+            wifi.as_ref(),
+            &cameras,
+        )?;
 
         if !(raw.map.resolution.is_finite()
             && raw.map.resolution >= 0.01
@@ -831,7 +945,11 @@ impl Scenario {
                     }
                     events.push(Event::Kidnap {
                         at_s: *at_s,
-                        to: Pose2::new(to[0], to[1], to[2]),
+                        to: Pose2::new(
+                            to[0],
+                            to[1],
+                            heading(file, &format!("events[{i}].to"), to[2])?,
+                        ),
                     });
                 }
             }
@@ -938,6 +1056,7 @@ impl Scenario {
             node_experiment: raw.node_experiment,
             appearance_experiment: raw.appearance_experiment,
             text: text.to_string(),
+            input_files,
         };
         Ok(scenario)
     }

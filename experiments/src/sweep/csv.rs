@@ -1,6 +1,9 @@
-//! `results.csv`: a header comment holding the sweep's hash, a column header, then one row per
-//! trial and localizer. Rows are only ever appended as whole lines, so the only damage a
-//! killed sweep can leave is a trailing partial line, which [`read_results`] drops.
+//! `results.csv`: a header comment holding the sweep's hash, its size and the shard the
+//! folder holds, a column header, then one row per trial and localizer. Fields are quoted as
+//! RFC 4180 says (a value may hold commas, quotes and newlines) and [`read_results`] parses
+//! them back, so every file written here is one its reader accepts. Rows are only ever
+//! appended as whole records, so the only damage a killed sweep can leave is a trailing
+//! partial record, which [`read_results`] drops.
 
 use atrium_scenarios::error::ScenarioError;
 use std::path::Path;
@@ -63,66 +66,162 @@ impl Row {
         line
     }
 
-    fn parse(line: &str, n_params: usize) -> Result<Row, String> {
-        let f = split(line)?;
+    fn from_fields(f: Vec<String>, n_params: usize) -> Result<Row, String> {
         let n = fixed_columns().len();
         if f.len() != n_params + n {
             return Err(format!("expected {} fields, got {}", n_params + n, f.len()));
         }
-        let num = |i: usize| f[i].parse::<u64>().map_err(|e| format!("{}: {e}", f[i]));
+        let num = |i: usize| {
+            f[i].parse::<u64>()
+                .map_err(|e| format!("{} {:?}: {e}", FIXED_COLUMNS[i - n_params], f[i]))
+        };
+        let index = |i: usize| {
+            num(i).and_then(|v| {
+                usize::try_from(v).map_err(|e| format!("{}: {v}: {e}", FIXED_COLUMNS[i - n_params]))
+            })
+        };
         Ok(Row {
-            params: f[..n_params].to_vec(),
-            cell: num(n_params)? as usize,
-            trial: num(n_params + 1)? as usize,
+            cell: index(n_params)?,
+            trial: index(n_params + 1)?,
             seed: num(n_params + 2)?,
             localizer: f[n_params + 3].clone(),
             values: f[n_params + 4..].to_vec(),
+            params: f[..n_params].to_vec(),
         })
     }
 }
 
+/// A field as RFC 4180 writes it: quoted when it holds a comma, quote or line break (or
+/// starts with a space, which some readers trim).
 fn quote(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
+    if s.contains([',', '"', '\n', '\r']) || s.starts_with(' ') || s.ends_with(' ') {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
     }
 }
 
-/// Splits one CSV line (RFC 4180 quoting, no embedded newlines).
-fn split(line: &str) -> Result<Vec<String>, String> {
+/// One record of `text` from byte `at`: its fields and the offset after its terminating
+/// newline, or `None` when the text ends before the record does (an interrupted write).
+fn record(text: &str, at: usize) -> Result<Option<(Vec<String>, usize)>, String> {
     let mut out = Vec::new();
     let mut cur = String::new();
-    let mut chars = line.chars().peekable();
     let mut quoted = false;
-    while let Some(c) = chars.next() {
+    // Whether the current field was quoted: after its closing quote only `,` or a line end
+    // may follow.
+    let mut closed = false;
+    let mut chars = text[at..].char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
         match (quoted, c) {
-            (true, '"') if chars.peek() == Some(&'"') => {
+            (true, '"') if chars.peek().map(|p| p.1) == Some('"') => {
                 cur.push('"');
                 chars.next();
             }
-            (true, '"') => quoted = false,
-            (false, '"') if cur.is_empty() => quoted = true,
-            (false, ',') => out.push(std::mem::take(&mut cur)),
-            (_, c) => cur.push(c),
+            (true, '"') => {
+                quoted = false;
+                closed = true;
+            }
+            (true, c) => cur.push(c),
+            (false, '"') if cur.is_empty() && !closed => quoted = true,
+            (false, ',') => {
+                out.push(std::mem::take(&mut cur));
+                closed = false;
+            }
+            (false, '\r') if chars.peek().map(|p| p.1) == Some('\n') => {}
+            (false, '\n') => {
+                out.push(cur);
+                return Ok(Some((out, at + i + 1)));
+            }
+            (false, c) if closed => {
+                return Err(format!(
+                    "{c:?} after a closing quote (quote the whole field)"
+                ))
+            }
+            (false, c) => cur.push(c),
         }
     }
-    if quoted {
-        return Err("unterminated quote".into());
+    Ok(None)
+}
+
+/// Escapes a sweep name for the header comment line: `%`, and every control character
+/// (newlines above all) as `%XX`, so the name stays on its line whatever it holds.
+fn escape_name(name: &str) -> String {
+    let mut s = String::with_capacity(name.len());
+    for c in name.chars() {
+        if c == '%' || c.is_control() {
+            let mut buf = [0u8; 4];
+            for b in c.encode_utf8(&mut buf).bytes() {
+                s.push_str(&format!("%{b:02X}"));
+            }
+        } else {
+            s.push(c);
+        }
     }
-    out.push(cur);
-    Ok(out)
+    s
+}
+
+fn unescape_name(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = || std::str::from_utf8(b.get(i + 1..i + 3)?).ok();
+        match (b[i], hex().and_then(|h| u8::from_str_radix(h, 16).ok())) {
+            (b'%', Some(v)) => {
+                out.push(v);
+                i += 3;
+            }
+            (c, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// What a results folder covers: the sweep's size and the shard (`I/N`: the trials whose
+/// global index `cell × trials + trial` is `I` mod `N`) it was run as. `sweep merge` checks
+/// with it that the shards given cover every trial exactly once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    pub cells: usize,
+    pub trials: usize,
+    pub shard: (usize, usize),
+}
+
+impl Layout {
+    /// Whether trial `trial` of cell `cell` belongs to this shard.
+    pub fn holds(&self, cell: usize, trial: usize) -> bool {
+        let (i, n) = self.shard;
+        (cell * self.trials + trial) % n == i
+    }
+
+    /// Whether every trial of `other`'s shard is one of this shard's (the whole sweep covers
+    /// every shard; `1/2` covers `1/4` and `3/4`).
+    pub fn covers(&self, other: &Layout) -> bool {
+        let ((i, n), (j, m)) = (self.shard, other.shard);
+        self.cells == other.cells && self.trials == other.trials && m % n == 0 && j % n == i
+    }
 }
 
 /// The two header lines of a results file.
-pub fn header(hash: &str, name: &str, axis_paths: &[String]) -> String {
+pub fn header(hash: &str, name: &str, layout: Option<&Layout>, axis_paths: &[String]) -> String {
     let cols: Vec<String> = axis_paths
         .iter()
         .map(|p| quote(p))
         .chain(fixed_columns().iter().map(|c| c.to_string()))
         .collect();
+    // The name goes last and takes the rest of the line, so it may hold spaces.
+    let size = layout.map_or(String::new(), |l| {
+        format!(
+            " cells={} trials={} shard={}/{}",
+            l.cells, l.trials, l.shard.0, l.shard.1
+        )
+    });
     format!(
-        "# atrium-sweep hash={hash} name={name}\n{}\n",
+        "# atrium-sweep hash={hash}{size} name={}\n{}\n",
+        escape_name(name),
         cols.join(",")
     )
 }
@@ -132,6 +231,9 @@ pub fn header(hash: &str, name: &str, axis_paths: &[String]) -> String {
 pub struct Results {
     pub hash: String,
     pub name: String,
+    /// The sweep's size and the shard the file holds (`None` in files written before it was
+    /// recorded).
+    pub layout: Option<Layout>,
     pub axis_paths: Vec<String>,
     pub rows: Vec<Row>,
     /// Whether a trailing partial line (an interrupted write) was dropped.
@@ -140,7 +242,12 @@ pub struct Results {
 
 impl Results {
     pub fn header(&self) -> String {
-        header(&self.hash, &self.name, &self.axis_paths)
+        header(
+            &self.hash,
+            &self.name,
+            self.layout.as_ref(),
+            &self.axis_paths,
+        )
     }
 
     pub fn to_text(&self) -> String {
@@ -152,90 +259,230 @@ impl Results {
     }
 }
 
-/// Reads a results file; a malformed file is bad input naming the file and line.
-pub fn read_results(path: &Path) -> Result<Results, ScenarioError> {
-    let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
-        file: path.to_path_buf(),
-        err,
-    })?;
-    let bad = |line: usize, msg: String| ScenarioError::field(path, format!("line {line}"), msg);
-    // Only newline-terminated lines are complete; a row is written in one write ending in
-    // '\n', so anything after the last '\n' is the remains of an interrupted write.
-    let complete = text.rfind('\n').map_or("", |i| &text[..=i]);
-    let dropped_partial = complete.len() < text.len();
-    let mut lines = complete.lines();
-    let first = lines
-        .next()
-        .ok_or_else(|| bad(1, "empty file: not an atrium sweep results file".into()))?;
+/// Parses the comment line `# atrium-sweep hash=... [cells=C trials=T shard=I/N] name=...`.
+fn parse_meta(first: &str) -> Result<(String, String, Option<Layout>), String> {
     let meta = first
         .strip_prefix("# atrium-sweep ")
-        .ok_or_else(|| bad(1, "not an atrium sweep results file".into()))?;
+        .ok_or("not an atrium sweep results file")?;
+    let (fields, name) = match meta.find("name=") {
+        Some(i) => (&meta[..i], unescape_name(&meta[i + "name=".len()..])),
+        None => (meta, String::new()),
+    };
     let mut hash = None;
-    let mut name = String::new();
-    for kv in meta.split(' ') {
-        if let Some(h) = kv.strip_prefix("hash=") {
-            hash = Some(h.to_string());
-        } else if let Some(n) = kv.strip_prefix("name=") {
-            name = n.to_string();
+    let (mut cells, mut trials, mut shard) = (None, None, None);
+    for kv in fields.split(' ').filter(|s| !s.is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or(format!("{kv:?}: expected key=value"))?;
+        let count = || v.parse::<usize>().map_err(|e| format!("{k}={v}: {e}"));
+        match k {
+            "hash" => hash = Some(v.to_string()),
+            "cells" => cells = Some(count()?),
+            "trials" => trials = Some(count()?),
+            "shard" => {
+                shard = Some(super::run::parse_shard(v).map_err(|e| format!("shard={v}: {e}"))?)
+            }
+            _ => {}
         }
     }
-    let hash = hash.ok_or_else(|| bad(1, "no hash= in the header".into()))?;
-    let cols = split(
-        lines
-            .next()
-            .ok_or_else(|| bad(2, "no column header".into()))?,
-    )
-    .map_err(|e| bad(2, e))?;
+    let hash = hash.ok_or("no hash= in the header")?;
+    let layout = match (cells, trials, shard) {
+        (Some(cells), Some(trials), Some(shard)) => Some(Layout {
+            cells,
+            trials,
+            shard,
+        }),
+        (None, None, None) => None,
+        _ => return Err("cells=, trials= and shard= go together".into()),
+    };
+    Ok((hash, name, layout))
+}
+
+/// Parses a results file's text; errors are (line, message).
+pub fn parse_results(text: &str) -> Result<Results, (usize, String)> {
+    let first_end = text.find('\n').ok_or((
+        1,
+        "not an atrium sweep results file (no complete header line)".to_string(),
+    ))?;
+    let (hash, name, layout) = parse_meta(&text[..first_end]).map_err(|m| (1, m))?;
+    let mut at = first_end + 1;
+    let mut line = 2;
+    let lines_in = |a: usize, b: usize| text[a..b].matches('\n').count();
+    let (cols, next) = record(text, at)
+        .map_err(|m| (line, m))?
+        .ok_or((2, "no column header".to_string()))?;
+    line += lines_in(at, next);
+    at = next;
     let n_fixed = fixed_columns().len();
     if cols.len() < n_fixed || cols[cols.len() - n_fixed..] != *fixed_columns() {
-        return Err(bad(2, "unexpected columns".into()));
+        return Err((2, "unexpected columns".into()));
     }
     let axis_paths = cols[..cols.len() - n_fixed].to_vec();
     let mut rows = Vec::new();
-    for (i, line) in lines.enumerate() {
-        rows.push(Row::parse(line, axis_paths.len()).map_err(|e| bad(i + 3, e))?);
+    let mut dropped_partial = false;
+    while at < text.len() {
+        match record(text, at).map_err(|m| (line, m))? {
+            Some((fields, next)) => {
+                rows.push(Row::from_fields(fields, axis_paths.len()).map_err(|m| (line, m))?);
+                line += lines_in(at, next);
+                at = next;
+            }
+            // A record is written in one write ending in its newline, so a record the text
+            // ends inside is the remains of an interrupted write.
+            None => {
+                dropped_partial = true;
+                break;
+            }
+        }
     }
     Ok(Results {
         hash,
         name,
+        layout,
         axis_paths,
         rows,
         dropped_partial,
     })
 }
 
+/// Reads a results file; a malformed file is bad input naming the file and line.
+pub fn read_results(path: &Path) -> Result<Results, ScenarioError> {
+    let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
+        file: path.to_path_buf(),
+        err,
+    })?;
+    parse_results(&text)
+        .map_err(|(line, msg)| ScenarioError::field(path, format!("line {line}"), msg))
+}
+
 /// Writes `text` to `path` atomically (temporary file, fsync, rename), so a reader or a
 /// killed process never sees half a file.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
-    use std::io::Write;
-    let io = |err| ScenarioError::Io {
-        file: path.to_path_buf(),
-        err,
-    };
-    let tmp = path.with_extension("tmp");
-    let mut f = std::fs::File::create(&tmp).map_err(io)?;
-    f.write_all(text.as_bytes()).map_err(io)?;
-    f.sync_all().map_err(io)?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(io)
+    atrium_scenarios::output::write_atomic(path, text.as_bytes()).map_err(|err| {
+        ScenarioError::Write {
+            file: path.to_path_buf(),
+            err,
+        }
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn rows_round_trip_with_quoting() {
-        let r = Row {
-            params: vec!["\"a,b\"".into(), "4.5".into()],
+    const NASTY: &[&str] = &[
+        "",
+        "plain",
+        "a,b",
+        "\"quoted\"",
+        "\"",
+        "line\nbreak",
+        "cr\r\nlf",
+        "\r",
+        "trailing\n",
+        " padded ",
+        "# not a comment",
+        "é ü \u{feff} \u{10ffff}",
+        "x\"y,z\nw",
+        "name=evil hash=0",
+    ];
+
+    fn row(params: Vec<String>, localizer: &str) -> Row {
+        Row {
+            params,
             cell: 3,
             trial: 1,
             seed: 99,
-            localizer: "mcl".into(),
+            localizer: localizer.into(),
             values: (0..9).map(|i| i.to_string()).collect(),
-        };
+        }
+    }
+
+    #[test]
+    fn rows_round_trip_with_quoting() {
+        let r = row(vec!["\"a,b\"".into(), "4.5".into()], "mcl");
         let line = r.to_line();
-        assert_eq!(Row::parse(line.trim_end(), 2).unwrap(), r);
+        let (fields, end) = record(&line, 0).unwrap().unwrap();
+        assert_eq!(end, line.len());
+        assert_eq!(Row::from_fields(fields, 2).unwrap(), r);
         assert_eq!(r.median(), Some(1.0));
+    }
+
+    #[test]
+    fn any_value_path_and_name_round_trip_through_the_file() {
+        for (k, nasty) in NASTY.iter().enumerate() {
+            let results = Results {
+                hash: "00ff".into(),
+                name: format!("sweep {nasty} %41 % 100%"),
+                layout: Some(Layout {
+                    cells: 4,
+                    trials: 2,
+                    shard: (1, 3),
+                }),
+                axis_paths: vec![format!("p{nasty}"), "q".into()],
+                rows: NASTY
+                    .iter()
+                    .map(|v| row(vec![v.to_string(), nasty.to_string()], "l"))
+                    .collect(),
+                dropped_partial: false,
+            };
+            let text = results.to_text();
+            assert_eq!(text.lines().next().unwrap().len(), text.find('\n').unwrap());
+            let back = parse_results(&text).unwrap_or_else(|e| panic!("case {k}: {e:?}\n{text}"));
+            assert_eq!(back.name, results.name);
+            assert_eq!(back.hash, results.hash);
+            assert_eq!(back.layout, results.layout);
+            assert_eq!(back.axis_paths, results.axis_paths);
+            assert_eq!(back.rows, results.rows);
+            assert!(!back.dropped_partial);
+            assert_eq!(back.to_text(), text);
+        }
+    }
+
+    #[test]
+    fn a_torn_last_record_is_dropped_even_inside_a_quoted_newline() {
+        let results = Results {
+            hash: "h".into(),
+            name: "n".into(),
+            layout: None,
+            axis_paths: vec!["a".into()],
+            rows: vec![row(vec!["x\ny".into()], "l"), row(vec!["z\nw".into()], "m")],
+            dropped_partial: false,
+        };
+        let text = results.to_text();
+        let second = text.rfind("\"z").unwrap();
+        for cut in second..text.len() {
+            let back = parse_results(&text[..cut]).unwrap();
+            assert_eq!(back.rows, results.rows[..1], "cut at {cut}");
+            assert_eq!(back.dropped_partial, cut > second, "cut at {cut}");
+        }
+        assert_eq!(parse_results(&text).unwrap().rows, results.rows);
+    }
+
+    #[test]
+    fn malformed_files_name_the_line() {
+        let h = header("h", "n", None, &["a".into()]);
+        let bad =
+            format!("{h}1,0,0,0,l,1,2,3,4,5,6,7,true,0.1\n1,0,x,0,l,1,2,3,4,5,6,7,true,0.1\n");
+        assert_eq!(parse_results(&bad).unwrap_err().0, 4);
+        let bad = format!("{h}\"a\"b,0,0,0,l,1,2,3,4,5,6,7,true,0.1\n");
+        assert_eq!(parse_results(&bad).unwrap_err().0, 3);
+        assert!(parse_results("# atrium-sweep name=x\n").is_err());
+        assert!(parse_results("# atrium-sweep hash=1 cells=3 name=x\na\n").is_err());
+        assert!(parse_results("").is_err());
+    }
+
+    #[test]
+    fn layouts_cover_their_sub_shards() {
+        let l = |i, n| Layout {
+            cells: 3,
+            trials: 2,
+            shard: (i, n),
+        };
+        assert!(l(0, 1).covers(&l(1, 2)));
+        assert!(l(1, 2).covers(&l(3, 4)));
+        assert!(!l(1, 2).covers(&l(0, 4)));
+        assert!(!l(0, 2).covers(&l(0, 1)));
+        assert!(l(1, 2).holds(0, 1) && !l(1, 2).holds(1, 0));
     }
 }

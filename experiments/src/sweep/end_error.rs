@@ -75,7 +75,7 @@ pub fn to_markdown(results: &Results) -> String {
             .axis_paths
             .iter()
             .zip(params.get(&cell).copied().unwrap_or_default())
-            .map(|(k, v)| format!("{k} = {v}"))
+            .map(|(k, v)| super::summary::one_line(&format!("{k} = {v}")))
             .collect();
         s.push_str(&format!(
             "\n## End error, cell {cell}: {}\n\n",
@@ -137,6 +137,7 @@ mod tests {
         let results = Results {
             hash: "h".into(),
             name: "n".into(),
+            layout: None,
             axis_paths: vec![],
             rows: vec![
                 row(0, "laser", "0.01"),

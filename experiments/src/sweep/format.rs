@@ -13,15 +13,25 @@
 //! ```
 //!
 //! An axis's path may also be written as nested tables (`[axes.odometry] radius_error = [..]`);
-//! every leaf array is one axis. Cells are the cartesian product of the axes, the last axis
+//! every leaf array is one axis, and each parameter may have one axis only (two spellings of
+//! one path, or a path inside another axis's table, are refused). Path keys are bare TOML keys
+//! (letters, digits, `_`, `-`). Cells are the cartesian product of the axes, the last axis
 //! varying fastest. A cell is applied by editing the base scenario's TOML table and parsing the
-//! result with [`Scenario::from_toml_str`], so every scenario validation applies to it.
+//! result with [`Scenario::from_toml_str`], so every scenario validation applies to it; its
+//! errors are traced back to the line of the sweep file or base scenario that caused them
+//! (see `super::origin`).
 
+use super::inputs::{self, Collector, InputFile};
+use super::origin::{field_keys, keys_at, line_of, parse_toml_message, within};
 use atrium_scenarios::error::ScenarioError;
 use atrium_scenarios::maps::SharedMaps;
 use atrium_scenarios::scenario::Scenario;
 use atrium_scenarios::LocalizerRegistry;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// One parameter axis: a dotted path into the scenario and the values it takes.
 #[derive(Debug, Clone)]
@@ -40,9 +50,14 @@ pub struct Sweep {
     pub seed: u64,
     pub trials: usize,
     pub axes: Vec<Axis>,
-    /// Identifies the sweep: a hash of the sweep file's and base scenario's text. Results
-    /// written under another hash belong to another sweep and are never mixed with these.
+    /// Identifies the sweep: a hash of the sweep file's text and of the content of every file
+    /// its trials read ([`Sweep::inputs`]). Results written under another hash belong to
+    /// another sweep (or to changed inputs) and are never mixed with these.
     pub hash: String,
+    /// The files the trials read (base scenario, worlds, robots, sensor files, training
+    /// scenarios, error maps, ...) with their content hashes, by name relative to the sweep
+    /// file's folder (see `super::inputs`).
+    pub inputs: Vec<InputFile>,
     /// `[error_map] resolution`, m: every trial records a per-location error map.
     pub error_map: Option<f64>,
     /// The sweep file's own `[[localizers]]`, added to the base scenario's in every cell.
@@ -55,6 +70,13 @@ pub struct Sweep {
     pub(crate) warm: WarmMaps,
     /// The localizer kinds the trials are built from.
     pub registry: LocalizerRegistry,
+    /// The sweep file's text (errors give its lines).
+    pub(crate) text: String,
+    /// The base scenario's table, parsed once.
+    pub(crate) base_doc: toml::Table,
+    /// Per axis, its keys under `[axes]` as the file writes them (`["odometry",
+    /// "radius_error"]` or `["odometry.radius_error"]`), to find its line.
+    pub(crate) axis_keys: Vec<Vec<String>>,
 }
 
 /// Per-cell [`SharedMaps`] kept alive between validation and the trials.
@@ -92,6 +114,9 @@ pub const MAX_CELLS: usize = 10_000;
 /// The most trials one sweep may run (its `results.csv` holds a row per trial and localizer).
 pub const MAX_TRIALS: usize = 1_000_000;
 
+/// How often validation reports its progress (when it takes longer than this at all).
+const PROGRESS_EVERY: Duration = Duration::from_secs(1);
+
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SweepFile {
@@ -110,34 +135,59 @@ struct SweepFile {
     expect: toml::Table,
 }
 
-/// FNV-1a 64 over `parts` with a separator, printed as hex: stable across machines and
-/// Rust versions (unlike `DefaultHasher`).
-fn fnv_hex(parts: &[&str]) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for p in parts {
-        for b in p.bytes().chain(std::iter::once(0u8)) {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
+/// A key as the sweep file could write it: bare when it is one, quoted otherwise.
+fn spell_key(k: &str) -> String {
+    if bare_key(k) {
+        k.to_string()
+    } else {
+        format!("{k:?}")
     }
-    format!("{h:016x}")
+}
+
+/// TOML's bare-key characters: the only ones a parameter path's keys are made of.
+fn bare_key(k: &str) -> bool {
+    !k.is_empty()
+        && k.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// How an axis is written: `axes."odometry.radius_error"` or `axes.odometry.radius_error`.
+fn spelling(keys: &[String]) -> String {
+    std::iter::once("axes".to_string())
+        .chain(keys.iter().map(|k| spell_key(k)))
+        .collect::<Vec<_>>()
+        .join(".")
 }
 
 fn flatten_axes(
     file: &Path,
-    prefix: &str,
+    keys: &mut Vec<String>,
     table: &toml::Table,
-    out: &mut Vec<Axis>,
+    out: &mut Vec<(Axis, Vec<String>)>,
 ) -> Result<(), ScenarioError> {
     for (k, v) in table {
-        let path = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
+        keys.push(k.clone());
+        let path = keys.join(".");
         match v {
-            toml::Value::Table(t) => flatten_axes(file, &path, t, out)?,
+            toml::Value::Table(t) if t.is_empty() => {
+                return Err(ScenarioError::field(
+                    file,
+                    spelling(keys),
+                    "an empty table: name the axes under it, or remove it",
+                ))
+            }
+            toml::Value::Table(t) => flatten_axes(file, keys, t, out)?,
             toml::Value::Array(values) => {
+                if let Some(bad) = path.split('.').find(|s| !bare_key(s)) {
+                    return Err(ScenarioError::field(
+                        file,
+                        spelling(keys),
+                        format!(
+                            "{bad:?} is not a parameter name: an axis path is keys of letters, \
+                             digits, '_' and '-' joined by '.'"
+                        ),
+                    ));
+                }
                 if values.is_empty() {
                     return Err(ScenarioError::field(
                         file,
@@ -145,10 +195,13 @@ fn flatten_axes(
                         "empty axis: give at least one value",
                     ));
                 }
-                out.push(Axis {
-                    path,
-                    values: values.clone(),
-                });
+                out.push((
+                    Axis {
+                        path,
+                        values: values.clone(),
+                    },
+                    keys.clone(),
+                ));
             }
             _ => {
                 return Err(ScenarioError::field(
@@ -157,6 +210,39 @@ fn flatten_axes(
                     "an axis must be a list of values",
                 ))
             }
+        }
+        keys.pop();
+    }
+    Ok(())
+}
+
+/// Refuses two axes that set the same parameter (a dotted key and a nested table spelling
+/// one path) or one inside the other (`controller` and `controller.max_speed`): a cell would
+/// apply one and record both.
+fn check_overlaps(file: &Path, axes: &[(Axis, Vec<String>)]) -> Result<(), ScenarioError> {
+    let mut order: Vec<(Vec<&str>, usize)> = axes
+        .iter()
+        .enumerate()
+        .map(|(i, (a, _))| (a.path.split('.').collect(), i))
+        .collect();
+    // Sorted by keys, a path is directly followed by any path inside it.
+    order.sort();
+    for w in order.windows(2) {
+        let ((a, i), (b, j)) = (&w[0], &w[1]);
+        if b.starts_with(a) {
+            let (sa, sb) = (spelling(&axes[*i].1), spelling(&axes[*j].1));
+            let msg = if a.len() == b.len() {
+                format!(
+                    "{sa} and {sb} are the same parameter {}: give each parameter one axis",
+                    axes[*i].0.path
+                )
+            } else {
+                format!(
+                    "{sa} and {sb} overlap: {} lies inside {}; give each parameter one axis",
+                    axes[*j].0.path, axes[*i].0.path
+                )
+            };
+            return Err(ScenarioError::field(file, "axes", msg));
         }
     }
     Ok(())
@@ -213,6 +299,46 @@ fn set_path(doc: &mut toml::Table, path: &str, value: &toml::Value) -> Result<()
     Ok(())
 }
 
+/// A field as scenario errors write it: `localizers[NAME].rest`, `a.b[3]`.
+fn display_field(keys: &[String]) -> String {
+    let mut s = String::new();
+    for (i, k) in keys.iter().enumerate() {
+        let index = i > 0 && !k.is_empty() && k.chars().all(|c| c.is_ascii_digit());
+        if (i == 1 && keys[0] == "localizers") || index {
+            s.push_str(&format!("[{k}]"));
+        } else {
+            if i > 0 {
+                s.push('.');
+            }
+            s.push_str(k);
+        }
+    }
+    s
+}
+
+/// An axis value as messages show it: its TOML text, cut short.
+fn show(v: &toml::Value) -> String {
+    const MAX: usize = 60;
+    let s = v.to_string();
+    match s.char_indices().nth(MAX) {
+        Some((cut, _)) => format!("{}…", &s[..cut]),
+        None => s,
+    }
+}
+
+/// A choice of one value per axis (or of some axes): (axis index, value index) pairs.
+type Choice = [(usize, usize)];
+
+/// An error of a cell scenario in terms of the generated document: the keys it concerns and
+/// its message without position.
+#[derive(Debug, Clone, PartialEq)]
+struct Located {
+    keys: Vec<String>,
+    /// The field as the error wrote it, if it named one.
+    field: Option<String>,
+    msg: String,
+}
+
 impl Sweep {
     /// Loads a sweep whose trials use Atrium's built-in localizer kinds.
     pub fn load(path: &Path) -> Result<Sweep, ScenarioError> {
@@ -221,11 +347,21 @@ impl Sweep {
 
     /// Loads a sweep whose trials build their localizers from `registry` (a user's kinds).
     pub fn load_with(path: &Path, registry: LocalizerRegistry) -> Result<Sweep, ScenarioError> {
+        Self::load_reporting(path, registry, &|_, _| {})
+    }
+
+    /// [`Sweep::load_with`], calling `progress(done, total)` at most once a second while
+    /// the cells are validated, when that takes more than a second.
+    pub fn load_reporting(
+        path: &Path,
+        registry: LocalizerRegistry,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Sweep, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|err| ScenarioError::Io {
             file: path.to_path_buf(),
             err,
         })?;
-        Self::from_toml_str_with(&text, path, registry)
+        Self::parse(&text, path, registry, progress)
     }
 
     /// [`Sweep::from_toml_str_with`] with Atrium's built-in localizer kinds.
@@ -241,6 +377,15 @@ impl Sweep {
         file: &Path,
         registry: LocalizerRegistry,
     ) -> Result<Sweep, ScenarioError> {
+        Self::parse(text, file, registry, &|_, _| {})
+    }
+
+    fn parse(
+        text: &str,
+        file: &Path,
+        registry: LocalizerRegistry,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Sweep, ScenarioError> {
         let raw: SweepFile = toml::from_str(text).map_err(|e| ScenarioError::Parse {
             file: file.to_path_buf(),
             msg: e.to_string(),
@@ -248,15 +393,22 @@ impl Sweep {
         if raw.trials == 0 {
             return Err(ScenarioError::field(file, "trials", "must be at least 1"));
         }
+        let mut flat = Vec::new();
+        flatten_axes(file, &mut Vec::new(), &raw.axes, &mut flat)?;
+        check_overlaps(file, &flat)?;
+        let (axes, axis_keys): (Vec<Axis>, Vec<Vec<String>>) = flat.into_iter().unzip();
+        Self::check_size(file, &axes, raw.trials)?;
         let dir = file.parent().unwrap_or(Path::new("."));
         let base_file = dir.join(&raw.base);
         let base_text = std::fs::read_to_string(&base_file).map_err(|err| ScenarioError::Io {
             file: base_file.clone(),
             err,
         })?;
-        let mut axes = Vec::new();
-        flatten_axes(file, "", &raw.axes, &mut axes)?;
-        Self::check_size(file, &axes, raw.trials)?;
+        let base_doc: toml::Table =
+            toml::from_str(&base_text).map_err(|e| ScenarioError::Parse {
+                file: base_file.clone(),
+                msg: e.to_string(),
+            })?;
         let name = file
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -276,22 +428,34 @@ impl Sweep {
                 ))
             }
         };
-        let sweep = Sweep {
+        let mut sweep = Sweep {
             error_map,
             warm: WarmMaps::default(),
-            registry,
+            // Validation builds every cell's localizers: record the paths they resolve.
+            registry: registry.recording_paths(),
             extra_localizers: raw.localizers,
             extra_expect: raw.expect,
             file: file.to_path_buf(),
             name,
-            hash: fnv_hex(&[text, &base_text]),
+            hash: String::new(),
+            inputs: Vec::new(),
             base_file,
             base_text,
             seed: raw.seed,
             trials: raw.trials,
             axes,
+            text: text.to_string(),
+            base_doc,
+            axis_keys,
         };
-        sweep.validate()?;
+        let collector = sweep.validate(progress)?;
+        for p in sweep.registry.recorded_paths() {
+            collector.add_file(&p);
+        }
+        collector.add_file(&sweep.base_file);
+        sweep.registry = registry;
+        sweep.inputs = inputs::hash_files(dir, &collector.files())?;
+        sweep.hash = inputs::sweep_hash(text, &sweep.inputs);
         Ok(sweep)
     }
 
@@ -349,12 +513,31 @@ impl Sweep {
             .collect()
     }
 
-    fn scenario_with(&self, params: &[(&str, &toml::Value)]) -> Result<Scenario, ScenarioError> {
-        let mut doc: toml::Table =
-            toml::from_str(&self.base_text).map_err(|e| ScenarioError::Parse {
-                file: self.base_file.clone(),
-                msg: e.to_string(),
-            })?;
+    fn cell_choice(&self, cell: usize) -> Vec<(usize, usize)> {
+        self.cell_indices(cell).into_iter().enumerate().collect()
+    }
+
+    /// The line of axis `a` in the sweep file.
+    fn axis_line(&self, a: usize) -> Option<usize> {
+        let keys = self.axis_keys.get(a)?;
+        let mut path = vec!["axes".to_string()];
+        path.extend(keys.iter().cloned());
+        line_of(&self.text, &path)
+    }
+
+    /// `a = 1, b = "x"`: the axis values of `choice`.
+    fn settings(&self, choice: &Choice) -> String {
+        choice
+            .iter()
+            .map(|&(a, i)| format!("{} = {}", self.axes[a].path, show(&self.axes[a].values[i])))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The cell's table: the base scenario's, with the sweep's own localizers and
+    /// expectations, and the axis values of `choice`; and its text.
+    fn cell_doc(&self, choice: &Choice) -> Result<String, ScenarioError> {
+        let mut doc = self.base_doc.clone();
         if !self.extra_localizers.is_empty() {
             let list = doc
                 .entry("localizers")
@@ -378,45 +561,262 @@ impl Sweep {
                 }
             }
         }
-        for (path, value) in params {
-            set_path(&mut doc, path, value)
-                .map_err(|msg| ScenarioError::field(&self.file, format!("axes.{path}"), msg))?;
+        for &(a, i) in choice {
+            let axis = &self.axes[a];
+            set_path(&mut doc, &axis.path, &axis.values[i]).map_err(|msg| {
+                let line = self
+                    .axis_line(a)
+                    .map_or(String::new(), |l| format!(" (line {l})"));
+                ScenarioError::field(&self.file, format!("axes.{}", axis.path), msg + &line)
+            })?;
         }
-        let text = toml::to_string(&doc).map_err(|e| {
+        toml::to_string(&doc).map_err(|e| {
             ScenarioError::field(&self.file, "axes", format!("cannot write cell: {e}"))
-        })?;
+        })
+    }
+
+    fn scenario_with(
+        &self,
+        choice: &Choice,
+        cell: Option<usize>,
+    ) -> Result<Scenario, ScenarioError> {
+        let text = self.cell_doc(choice)?;
         // Parse as if the text were the base file, so its relative paths still resolve.
         Scenario::from_toml_str(&text, &self.base_file)
+            .map_err(|e| self.explain(e, choice, cell, Some(&text)))
     }
 
     /// The scenario of cell `cell`.
     pub fn cell_scenario(&self, cell: usize) -> Result<Scenario, ScenarioError> {
-        self.scenario_with(&self.cell_params(cell))
+        self.scenario_with(&self.cell_choice(cell), Some(cell))
+    }
+
+    /// `e` in terms of the keys of the cell document it concerns, when it is about the
+    /// cell's own text (`text`: the generated text of a parse error's position).
+    fn locate(&self, e: &ScenarioError, text: Option<&str>) -> Option<Located> {
+        let mut loc = self.locate_raw(e, text)?;
+        // An unnamed entry is written by index (`localizers[0].name`); axes and the sweep's
+        // own tables name localizers, so take the name the entry had before any axis value.
+        if loc.keys.first().map(String::as_str) == Some("localizers") {
+            if let Some(i) = loc.keys.get(1).and_then(|k| k.parse::<usize>().ok()) {
+                let base = self.base_doc.get("localizers").and_then(|l| l.as_array());
+                let n_base = base.map_or(0, Vec::len);
+                let entry = match i < n_base {
+                    true => base.and_then(|b| b[i].as_table()),
+                    false => self.extra_localizers.get(i - n_base),
+                };
+                if let Some(name) = entry.and_then(|t| t.get("name")).and_then(|n| n.as_str()) {
+                    loc.keys[1] = name.to_string();
+                }
+            }
+        }
+        Some(loc)
+    }
+
+    fn locate_raw(&self, e: &ScenarioError, text: Option<&str>) -> Option<Located> {
+        match e {
+            ScenarioError::Parse { file, msg } if *file == self.base_file => {
+                let text = text?;
+                let (offset, msg) = parse_toml_message(msg, text);
+                Some(Located {
+                    keys: offset.map(|o| keys_at(text, o)).unwrap_or_default(),
+                    field: None,
+                    msg,
+                })
+            }
+            ScenarioError::Field { file, field, msg } if *file == self.base_file => Some(Located {
+                keys: field_keys(field),
+                field: Some(field.clone()),
+                msg: msg.clone(),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The base scenario with the sweep's own tables but no axis value, located as `locate`
+    /// does, if it fails: tells an error of the base from one an axis value caused.
+    fn base_alone_error(&self) -> Option<Located> {
+        let text = self.cell_doc(&[]).ok()?;
+        let e = match Scenario::from_toml_str(&text, &self.base_file) {
+            Err(e) => e,
+            Ok(s) => {
+                let mut maps = SharedMaps::default();
+                s.localizers
+                    .iter()
+                    .find_map(|spec| self.registry.build(spec, &s, &mut maps, 0).err())?
+            }
+        };
+        self.locate(&e, Some(&text))
+    }
+
+    /// Whether `keys` (of the cell document) lie in the sweep file's own `[[localizers]]` or
+    /// `[expect.<name>]` tables; then the keys under which the sweep file has them.
+    fn sweep_own(&self, keys: &[String]) -> Option<Vec<String>> {
+        let n_base = self
+            .base_doc
+            .get("localizers")
+            .and_then(|l| l.as_array())
+            .map_or(0, Vec::len);
+        match (keys.first().map(String::as_str), keys.get(1)) {
+            (Some("localizers"), Some(k)) => {
+                let named = self
+                    .extra_localizers
+                    .iter()
+                    .any(|l| l.get("name").and_then(|n| n.as_str()) == Some(k.as_str()));
+                let index = k.parse::<usize>().ok().filter(|&i| i >= n_base);
+                let mut own = keys.to_vec();
+                match (named, index) {
+                    (true, _) => Some(own),
+                    (false, Some(i)) => {
+                        own[1] = (i - n_base).to_string();
+                        Some(own)
+                    }
+                    _ => None,
+                }
+            }
+            (Some("expect"), Some(k)) if self.extra_expect.contains_key(k) => Some(keys.to_vec()),
+            _ => None,
+        }
+    }
+
+    /// Turns an error of the cell `choice` (text `text`) into one naming the file and line
+    /// the user wrote: the axis whose value it concerns (sweep file), the sweep file's own
+    /// localizers and expectations, or the base scenario; always with the axis values.
+    fn explain(
+        &self,
+        e: ScenarioError,
+        choice: &Choice,
+        cell: Option<usize>,
+        text: Option<&str>,
+    ) -> ScenarioError {
+        let values = self.settings(choice);
+        let in_cell = match cell {
+            Some(c) if choice.len() > 1 => format!("cell {c}: {values}"),
+            _ => values.clone(),
+        };
+        let Some(loc) = self.locate(&e, text) else {
+            // Another file's error (a world, robot, training scenario): it names its own
+            // file; say which axis values led to it.
+            return match (choice, cell) {
+                ([], _) => e,
+                ([(a, i)], _) => {
+                    let line = self
+                        .axis_line(*a)
+                        .map_or(String::new(), |l| format!(", line {l}"));
+                    ScenarioError::field(
+                        &self.file,
+                        format!("axes.{}", self.axes[*a].path),
+                        format!("{e} (value {}{line})", show(&self.axes[*a].values[*i])),
+                    )
+                }
+                (_, Some(c)) => ScenarioError::field(
+                    &self.file,
+                    format!("cell {c}"),
+                    format!("{e} (with {values})"),
+                ),
+                (_, None) => ScenarioError::field(&self.file, values, e.to_string()),
+            };
+        };
+        let field = loc
+            .field
+            .clone()
+            .unwrap_or_else(|| display_field(&loc.keys));
+        let axis_keys =
+            |a: usize| -> Vec<String> { self.axes[a].path.split('.').map(String::from).collect() };
+        // The axis whose value the error is at or inside; else the one axis inside the
+        // table the error is about, unless the base scenario alone fails the same way.
+        let at_axis = choice
+            .iter()
+            .find(|&&(a, _)| within(&loc.keys, &axis_keys(a)));
+        let inside: Vec<&(usize, usize)> = choice
+            .iter()
+            .filter(|&&(a, _)| !loc.keys.is_empty() && within(&axis_keys(a), &loc.keys))
+            .collect();
+        let by_axis = at_axis.or_else(|| {
+            (inside.len() == 1 && self.base_alone_error().as_ref() != Some(&loc)).then(|| inside[0])
+        });
+        if let Some(&(a, i)) = by_axis {
+            let axis = &self.axes[a];
+            let mut why = format!("value {}", show(&axis.values[i]));
+            if let Some(l) = self.axis_line(a) {
+                why.push_str(&format!(", line {l}"));
+            }
+            if choice.len() > 1 {
+                why.push_str(&format!("; {in_cell}"));
+            }
+            // The field is worth naming when it is not the axis itself (nor already named
+            // by the message).
+            let named = loc.keys == axis_keys(a) || loc.msg.starts_with(&format!("{}:", axis.path));
+            let msg = match named {
+                true => loc.msg,
+                false => format!("{field}: {}", loc.msg),
+            };
+            return ScenarioError::field(
+                &self.file,
+                format!("axes.{}", axis.path),
+                format!("{msg} ({why})"),
+            );
+        }
+        let with = |line: Option<usize>, from: &str| {
+            let mut parts = Vec::new();
+            if let Some(l) = line {
+                parts.push(format!("line {l}"));
+            }
+            if !choice.is_empty() {
+                parts.push(format!("with {in_cell}{from}"));
+            }
+            match parts.is_empty() {
+                true => String::new(),
+                false => format!(" ({})", parts.join("; ")),
+            }
+        };
+        if let Some(own) = self.sweep_own(&loc.keys) {
+            let line = line_of(&self.text, &own);
+            return ScenarioError::field(
+                &self.file,
+                field,
+                format!("{}{}", loc.msg, with(line, "")),
+            );
+        }
+        let line = line_of(&self.base_text, &loc.keys);
+        let from = format!(" of {}", self.file.display());
+        ScenarioError::field(
+            &self.base_file,
+            field,
+            format!("{}{}", loc.msg, with(line, &from)),
+        )
     }
 
     /// Checks one combination of axis values; `cell` is the cell it is (if it is one), whose
-    /// maps are then kept for the trials.
+    /// maps are then kept for the trials. The files it reads go to `collector`.
     fn check(
         &self,
-        params: &[(&str, &toml::Value)],
-        what: String,
+        choice: &Choice,
         cell: Option<usize>,
+        collector: &Collector,
     ) -> Result<(), ScenarioError> {
-        let wrap = |e: ScenarioError| ScenarioError::field(&self.file, &what, e.to_string());
-        let scenario = self.scenario_with(params).map_err(wrap)?;
+        let scenario = self.scenario_with(choice, cell)?;
         if let Some(res) = self.error_map {
-            atrium_scenarios::error_maps::empty_for(&scenario, res)
-                .map_err(|msg| ScenarioError::field(&self.file, "error_map.resolution", msg))
-                .map_err(wrap)?;
+            atrium_scenarios::error_maps::empty_for(&scenario, res).map_err(|msg| {
+                let with = match choice {
+                    [] => String::new(),
+                    _ => format!(" (with {})", self.settings(choice)),
+                };
+                ScenarioError::field(&self.file, "error_map.resolution", msg + &with)
+            })?;
         }
-        // Localizer parameters are checked when a localizer is built, not when the scenario
-        // is parsed; build them here so a misspelt parameter fails before any trial runs.
+        // Kinds and expectation keys are checked when a run starts, localizer parameters when
+        // a localizer is built; both here, so a misspelt key fails before any trial runs.
+        self.registry
+            .check(&scenario)
+            .map_err(|e| self.explain(e, choice, cell, None))?;
         let mut maps = SharedMaps::default();
         for spec in &scenario.localizers {
             self.registry
                 .build(spec, &scenario, &mut maps, 0)
-                .map_err(wrap)?;
+                .map_err(|e| self.explain(e, choice, cell, None))?;
         }
+        collector.add_scenario(&scenario);
         if let Some(c) = cell {
             self.warm
                 .0
@@ -444,27 +844,56 @@ impl Sweep {
         Ok(maps)
     }
 
-    fn validate(&self) -> Result<(), ScenarioError> {
-        // Each axis alone first, so an error names the axis responsible.
+    /// Checks each axis value alone (so an error names the axis responsible), then every
+    /// cell, on all cores; the error reported is the first in that order whatever the thread
+    /// count. Returns the files the cells read.
+    fn validate(
+        &self,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Collector, ScenarioError> {
+        enum Check {
+            Value(usize, usize),
+            Cell(usize),
+        }
         let single = self.axes.len() == 1;
-        for a in &self.axes {
-            for (i, v) in a.values.iter().enumerate() {
-                // With one axis, value i is cell i.
-                let cell = single.then_some(i);
-                self.check(
-                    &[(a.path.as_str(), v)],
-                    format!("axes.{} = {v}", a.path),
-                    cell,
-                )?;
-            }
+        let mut checks: Vec<Check> = Vec::new();
+        for (a, axis) in self.axes.iter().enumerate() {
+            checks.extend((0..axis.values.len()).map(|i| Check::Value(a, i)));
         }
-        if self.axes.len() > 1 || self.axes.is_empty() {
-            for cell in 0..self.cells() {
-                let params = self.cell_params(cell);
-                self.check(&params, format!("cell {cell}"), Some(cell))?;
-            }
+        // With one axis, value i is cell i, checked above.
+        if !single {
+            checks.extend((0..self.cells()).map(Check::Cell));
         }
-        Ok(())
+        let collector = Collector::default();
+        let total = checks.len();
+        let done = AtomicUsize::new(0);
+        let started = Instant::now();
+        let last = Mutex::new(started);
+        let reported = AtomicBool::new(false);
+        let failed = checks.par_iter().find_map_first(|check| {
+            let r = match *check {
+                Check::Value(a, i) => self.check(&[(a, i)], single.then_some(i), &collector),
+                Check::Cell(c) => self.check(&self.cell_choice(c), Some(c), &collector),
+            };
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if started.elapsed() >= PROGRESS_EVERY {
+                if let Ok(mut t) = last.try_lock() {
+                    if t.elapsed() >= PROGRESS_EVERY {
+                        *t = Instant::now();
+                        reported.store(true, Ordering::Relaxed);
+                        progress(n, total);
+                    }
+                }
+            }
+            r.err()
+        });
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        if reported.load(Ordering::Relaxed) {
+            progress(total, total);
+        }
+        Ok(collector)
     }
 }
 
@@ -498,9 +927,201 @@ mod tests {
         assert!(set_path(&mut doc, "duration_s.x", &toml::Value::Integer(1)).is_err());
     }
 
+    /// A folder with a small base scenario (the campus, dead reckoning only: cheap to
+    /// validate) and the sweep file `sweep` beside it; returns the sweep file's path.
+    pub(crate) fn sweep_file(tag: &str, sweep: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("atrium-sweep-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let root = atrium_scenarios::bundled_scenarios_dir().join("..");
+        let base = format!(
+            "name = \"base\"\nduration_s = 5.0\nworld = {:?}\nrobot = {:?}\nseed = 3\n\
+             [start]\npose = [2.0, 20.0, 0.0]\n[route]\nwaypoints = [[8.0, 20.0]]\n\
+             [[localizers]]\nname = \"odometry\"\nkind = \"dead_reckoning\"\n",
+            root.join("worlds/campus.toml"),
+            root.join("robots/urdf/pioneer3dx.urdf"),
+        );
+        std::fs::write(dir.join("base.toml"), base).unwrap();
+        let f = dir.join("s.toml");
+        std::fs::write(&f, sweep).unwrap();
+        f
+    }
+
+    fn load_err(tag: &str, sweep: &str) -> String {
+        Sweep::load(&sweep_file(tag, sweep))
+            .unwrap_err()
+            .to_string()
+    }
+
+    const HEAD: &str = "base = \"base.toml\"\nseed = 1\ntrials = 1\n";
+
     #[test]
-    fn hash_depends_on_every_part() {
-        assert_ne!(fnv_hex(&["ab", "c"]), fnv_hex(&["a", "bc"]));
-        assert_eq!(fnv_hex(&["x"]), fnv_hex(&["x"]));
+    fn an_axis_named_twice_is_refused_naming_both_spellings() {
+        let e = load_err(
+            "twice",
+            &format!(
+                "{HEAD}[axes]\n\"controller.max_speed\" = [0.5]\n[axes.controller]\nmax_speed = [0.7]\n"
+            ),
+        );
+        assert!(e.contains("s.toml: axes:"), "{e}");
+        assert!(
+            e.contains("are the same parameter controller.max_speed"),
+            "{e}"
+        );
+        assert!(
+            e.contains("axes.\"controller.max_speed\"")
+                && e.contains("axes.controller.max_speed and"),
+            "{e}"
+        );
+        let e = load_err(
+            "inside",
+            &format!(
+                "{HEAD}[axes]\ncontroller = [{{ max_speed = 0.5 }}]\n\"controller.max_speed\" = [0.7]\n"
+            ),
+        );
+        assert!(
+            e.contains("axes.controller and axes.\"controller.max_speed\" overlap"),
+            "{e}"
+        );
+        let e = load_err(
+            "localizer-twice",
+            &format!(
+                "{HEAD}[axes]\n\"localizers.odometry.x\" = [1]\n[axes.localizers.odometry]\nx = [2]\n"
+            ),
+        );
+        assert!(e.contains("same parameter localizers.odometry.x"), "{e}");
+    }
+
+    #[test]
+    fn axis_paths_are_bare_keys_and_tables_name_axes() {
+        for (bad, needle) in [
+            ("\"odometry.\" = [1]", "\"\" is not a parameter name"),
+            ("\"a\\nb\" = [1]", "is not a parameter name"),
+            ("\"a,b\" = [1]", "\"a,b\" is not a parameter name"),
+            ("\"a b\" = [1]", "axes.\"a b\""),
+        ] {
+            let e = load_err("keys", &format!("{HEAD}[axes]\n{bad}\n"));
+            assert!(e.contains(needle), "{bad}: {e}");
+        }
+        let e = load_err("empty-table", &format!("{HEAD}[axes.odometry]\n"));
+        assert!(e.contains("axes.odometry: an empty table"), "{e}");
+    }
+
+    #[test]
+    fn cell_errors_name_the_users_file_and_line() {
+        // A wrong type on line 6 of the sweep file: the parse of the generated cell text
+        // must not leak its own line numbers.
+        let e = load_err(
+            "line-axis",
+            &format!("{HEAD}\n[axes]\nduration_s = [\"x\"]\n"),
+        );
+        assert!(
+            e.starts_with(&format!(
+                "{}: axes.duration_s: invalid type: string \"x\"",
+                sweep_file("line-axis", "").display()
+            )),
+            "{e}"
+        );
+        assert!(e.contains("line 6"), "{e}");
+        assert!(!e.contains("TOML parse error") && !e.contains('|'), "{e}");
+
+        // A value a scenario check refuses (not a parse error): its line.
+        let e = load_err(
+            "line-check",
+            &format!("{HEAD}[axes]\n\"odometry.radius_error\" = [0.01]\n\n\"controller.max_speed\" = [0.5, 1e9]\n"),
+        );
+        assert!(
+            e.contains("s.toml: axes.controller.max_speed: 1000000000 is above"),
+            "{e}"
+        );
+        assert!(e.contains("value 1000000000.0, line 7"), "{e}");
+
+        // The sweep file's own localizer: its file and line, not the base scenario's.
+        let e = load_err(
+            "line-own",
+            &format!("{HEAD}[axes]\nduration_s = [1.0, 2.0]\n\n[[localizers]]\nname = \"x\"\nkind = \"dead_reckoning\"\nbogus = 3\n"),
+        );
+        assert!(
+            e.contains("s.toml: localizers[x].bogus: dead_reckoning takes no parameters"),
+            "{e}"
+        );
+        assert!(e.contains("(line 10; with duration_s = 1.0)"), "{e}");
+        assert!(!e.contains("base.toml"), "{e}");
+
+        // An expectation key of the sweep file.
+        let e = load_err(
+            "line-expect",
+            &format!("{HEAD}[expect.odometry]\nmedian_maxx = 3\n"),
+        );
+        assert!(e.contains("s.toml: expect.odometry.median_maxx"), "{e}");
+        assert!(e.contains("line 5"), "{e}");
+
+        // A parameter an axis misspells inside a localizer's table.
+        let e = load_err(
+            "line-param",
+            &format!("{HEAD}[axes]\n\"localizers.odometry.nonsense\" = [1]\n"),
+        );
+        assert!(e.contains("s.toml: axes.localizers.odometry.nonsense: dead_reckoning takes no parameters (value 1, line 5)"), "{e}");
+
+        // A key of a nested-table spelling: the line of the key itself.
+        let e = load_err(
+            "line-table",
+            &format!("{HEAD}[axes]\nduration_s = [1.0]\n[axes.controller]\nmax_sped = [1.0]\n"),
+        );
+        assert!(
+            e.contains("s.toml: axes.controller.max_sped: unknown key"),
+            "{e}"
+        );
+        assert!(e.contains("(value 1.0, line 7)"), "{e}");
+    }
+
+    #[test]
+    fn base_scenario_errors_name_the_base_file_and_its_line() {
+        let f = sweep_file(
+            "line-base",
+            &format!("{HEAD}[axes]\nduration_s = [1.0, 2.0]\n"),
+        );
+        let base = f.parent().unwrap().join("base.toml");
+        let text = std::fs::read_to_string(&base).unwrap();
+        std::fs::write(
+            &base,
+            text.replace("seed = 3\n", "seed = 3\neval_hz = \"fast\"\n"),
+        )
+        .unwrap();
+        let e = Sweep::load(&f).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{}: eval_hz: invalid type", base.display())),
+            "{e}"
+        );
+        assert!(
+            e.contains(&format!("line 6; with duration_s = 1.0 of {}", f.display())),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn validation_reports_progress_only_when_slow_and_collects_inputs() {
+        let f = sweep_file(
+            "inputs",
+            &format!("{HEAD}[axes]\nduration_s = [1.0, 2.0]\n"),
+        );
+        let calls = AtomicUsize::new(0);
+        let s = Sweep::load_reporting(&f, LocalizerRegistry::with_builtins(), &|_, _| {
+            calls.fetch_add(1, Ordering::Relaxed);
+        })
+        .unwrap();
+        assert_eq!(calls.load(Ordering::Relaxed), 0);
+        let names: Vec<&str> = s.inputs.iter().map(|i| i.file.as_str()).collect();
+        assert!(names.contains(&"base.toml"), "{names:?}");
+        for end in [
+            "worlds/campus.toml",
+            "robots/urdf/pioneer3dx.urdf",
+            "pioneer3dx.sensors.toml",
+        ] {
+            assert!(
+                names.iter().any(|n| n.ends_with(end)),
+                "{end} not in {names:?}"
+            );
+        }
     }
 }

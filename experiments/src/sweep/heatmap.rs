@@ -114,6 +114,57 @@ fn sanitize(s: &str) -> String {
         .collect()
 }
 
+/// Longest file name written (most file systems allow 255 bytes).
+const MAX_FILE_NAME: usize = 120;
+
+/// File names for `names` (already sanitized), in order: each kept when it is short and its
+/// own; else cut and given a hash of the full name, and numbered if still taken, so two axis
+/// values that sanitize alike (`a/b`, `a_b`) never write one file over the other.
+fn unique_names(names: Vec<String>) -> Vec<String> {
+    let mut taken = std::collections::HashSet::new();
+    let mut out = Vec::with_capacity(names.len());
+    for name in names {
+        let stem = name.strip_suffix(".png").unwrap_or(&name);
+        let mut candidate = if name.len() <= MAX_FILE_NAME {
+            name.clone()
+        } else {
+            let cut: String = stem.chars().take(MAX_FILE_NAME - 24).collect();
+            format!(
+                "{cut}_{}.png",
+                &super::inputs::fnv_hex(&[name.as_bytes()])[..8]
+            )
+        };
+        let stem = candidate.trim_end_matches(".png").to_string();
+        let mut k = 2;
+        while taken.contains(&candidate) {
+            candidate = format!("{stem}_{k}.png");
+            k += 1;
+        }
+        taken.insert(candidate.clone());
+        out.push(candidate);
+    }
+    out
+}
+
+/// Longest label drawn, characters: longer axis values and paths are cut (with `~`) so a
+/// picture's size does not grow with them.
+const MAX_LABEL: usize = 24;
+
+/// `s` cut to [`MAX_LABEL`] characters.
+fn clip(s: &str) -> String {
+    if s.chars().count() <= MAX_LABEL {
+        s.to_string()
+    } else {
+        let mut c: String = s.chars().take(MAX_LABEL - 1).collect();
+        c.push('~');
+        c
+    }
+}
+
+/// The largest heat map drawn, pixels (about 160 MB of RGBA): a larger one (thousands of
+/// values on one axis) is left out with a note rather than exhausting memory after the run.
+pub const MAX_PIXELS: u64 = 40_000_000;
+
 /// Axis indices of cell `cell` (last axis fastest, as [`super::Sweep::cell_indices`]).
 fn indices(axes: &[AxisLabels], cell: usize) -> Vec<usize> {
     let mut rem = cell;
@@ -260,9 +311,16 @@ fn picture(
     pm.encode_png().map_err(|e| e.to_string())
 }
 
-/// Every heat map of `results`: (file name, PNG bytes). `axes` are the sweep's axes in order
-/// with their value labels; cells without a result are drawn grey.
-pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Vec<(String, Vec<u8>)>, String> {
+/// The heat maps of a sweep: (file name, PNG bytes), and the pictures left out (too large).
+#[derive(Debug, Default)]
+pub struct Heatmaps {
+    pub pictures: Vec<(String, Vec<u8>)>,
+    pub skipped: Vec<String>,
+}
+
+/// Every heat map of `results`. `axes` are the sweep's axes in order with their value
+/// labels; cells without a result are drawn grey.
+pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Heatmaps, String> {
     let table = summary::table(results);
     let mut localizers: Vec<&str> = Vec::new();
     for r in &results.rows {
@@ -270,12 +328,21 @@ pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Vec<(String, V
             localizers.push(&r.localizer);
         }
     }
+    // Drawn with labels cut short; file names are made from the full values.
+    let drawn: Vec<AxisLabels> = axes
+        .iter()
+        .map(|a| AxisLabels {
+            path: clip(&a.path),
+            values: a.values.iter().map(|v| clip(v)).collect(),
+        })
+        .collect();
     let cells: usize = axes.iter().map(|a| a.values.len().max(1)).product();
     let rest_axes = axes.get(2..).unwrap_or(&[]);
     let slices: usize = rest_axes.iter().map(|a| a.values.len().max(1)).product();
     let nx = axes.first().map_or(1, |a| a.values.len().max(1));
     let ny = axes.get(1).map_or(1, |a| a.values.len().max(1));
-    let mut out = Vec::new();
+    let mut out = Heatmaps::default();
+    let mut names = Vec::new();
     for loc in &localizers {
         for s in 0..slices {
             let rest = indices(rest_axes, s);
@@ -284,6 +351,7 @@ pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Vec<(String, V
                 .zip(&rest)
                 .map(|(a, &i)| format!("_{}={}", a.path, a.values[i]))
                 .collect();
+            let name = sanitize(&format!("heatmap_{loc}{suffix}.png"));
             let cell_of = |x: usize, y: usize| {
                 // Cell index with indices [x, y, rest...], last axis fastest.
                 let idx: Vec<usize> = [x, y]
@@ -302,15 +370,29 @@ pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Vec<(String, V
                     .flatten()
             };
             debug_assert!(nx * ny * slices == cells);
-            let rest_text: Vec<String> = rest_axes
+            let rest_text: Vec<String> = drawn
+                .get(2..)
+                .unwrap_or(&[])
                 .iter()
                 .zip(&rest)
                 .map(|(a, &i)| format!("{} = {}", a.path, a.values[i]))
                 .collect();
-            let title = title(loc, &rest_text);
-            let png = picture(axes, &title, &value)?;
-            out.push((sanitize(&format!("heatmap_{loc}{suffix}.png")), png));
+            let title = title(&clip(loc), &rest_text);
+            let (w, h, _, _) = size(&drawn, &title);
+            if u64::from(w) * u64::from(h) > MAX_PIXELS {
+                out.skipped.push(format!(
+                    "{name}: left out: {w} × {h} pixels is more than the limit of \
+                     {MAX_PIXELS} (too many values along the first two axes)"
+                ));
+                continue;
+            }
+            let png = picture(&drawn, &title, &value)?;
+            names.push(name);
+            out.pictures.push((String::new(), png));
         }
+    }
+    for (pic, name) in out.pictures.iter_mut().zip(unique_names(names)) {
+        pic.0 = name;
     }
     Ok(out)
 }
@@ -327,6 +409,53 @@ mod tests {
         }
         assert!((scale_t(0.1, 0.01, 1.0) - 0.5).abs() < 1e-12);
         assert_eq!(scale_t(3.0, 3.0, 3.0), 0.5);
+    }
+
+    #[test]
+    fn file_names_stay_short_and_distinct() {
+        let long = format!("heatmap_l_w={}.png", "x".repeat(300));
+        let names = unique_names(vec![
+            "heatmap_l_w=a_b.png".into(),
+            "heatmap_l_w=a_b.png".into(),
+            long.clone(),
+            long,
+        ]);
+        assert_eq!(names[0], "heatmap_l_w=a_b.png");
+        assert_eq!(names[1], "heatmap_l_w=a_b_2.png");
+        assert!(names[2].len() <= MAX_FILE_NAME && names[2].ends_with(".png"));
+        assert_ne!(names[2], names[3]);
+    }
+
+    #[test]
+    fn pictures_too_large_are_left_out_with_a_note() {
+        use super::super::csv::{Results, Row};
+        let n = 40_000;
+        let axes = vec![AxisLabels {
+            path: "p".repeat(500),
+            values: (0..n).map(|i| format!("{i}{}", "v".repeat(100))).collect(),
+        }];
+        let results = Results {
+            hash: "h".into(),
+            name: "n".into(),
+            layout: None,
+            axis_paths: vec!["p".into()],
+            rows: vec![Row {
+                params: vec!["0".into()],
+                cell: 0,
+                trial: 0,
+                seed: 0,
+                localizer: "l".into(),
+                values: vec!["1".into(); 9],
+            }],
+            dropped_partial: false,
+        };
+        let h = heatmaps(&results, &axes).unwrap();
+        assert!(h.pictures.is_empty());
+        assert!(
+            h.skipped[0].contains("heatmap_l.png: left out"),
+            "{:?}",
+            h.skipped
+        );
     }
 
     #[test]

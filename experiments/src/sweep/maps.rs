@@ -62,10 +62,14 @@ fn world_path(out: &Path, cell: usize) -> PathBuf {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ScenarioError> {
+    let failed = |file: &Path| {
+        let file = file.to_path_buf();
+        move |err| ScenarioError::Write { file, err }
+    };
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        std::fs::create_dir_all(dir).map_err(failed(dir))?;
     }
-    atrium_scenarios::output::write_atomic(path, bytes).map_err(io(path))
+    atrium_scenarios::output::write_atomic(path, bytes).map_err(failed(path))
 }
 
 /// Records the world of `cell` (once) so the pictures can be drawn from the folder alone.

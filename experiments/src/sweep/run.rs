@@ -1,9 +1,10 @@
 //! Running a sweep: trials in parallel on a rayon pool, one atomically appended row batch per
 //! finished trial, resumable, and sliceable into shards for batch schedulers.
 
-use super::csv::{self, Results, Row};
+use super::csv::{self, Layout, Results, Row};
 use super::format::Sweep;
 use super::heatmap::{self, AxisLabels};
+use super::inputs::{self, InputFile};
 use super::maps;
 use super::summary;
 use atrium_scenarios::error::ScenarioError;
@@ -47,6 +48,8 @@ pub struct SweepOutcome {
     pub summary_md: PathBuf,
     /// Heat maps and error-map files written.
     pub pictures: Vec<PathBuf>,
+    /// Pictures left out, and why (a heat map too large to draw).
+    pub notes: Vec<String>,
     pub wall_s: f64,
 }
 
@@ -96,19 +99,20 @@ pub fn axis_labels(sweep: &Sweep) -> Vec<AxisLabels> {
 }
 
 /// Writes the heat maps of `results` and, when `error_maps` gives the trials to sum (and
-/// whether the sweep has a single cell), the error-map CSV and pictures. Returns the files.
+/// whether the sweep has a single cell), the error-map CSV and pictures. Returns the files,
+/// and notes on the pictures left out.
 pub fn write_pictures(
     out: &Path,
     results: &Results,
     axes: &[AxisLabels],
     error_maps: Option<(&[(usize, usize)], bool)>,
-) -> Result<Vec<PathBuf>, ScenarioError> {
+) -> Result<(Vec<PathBuf>, Vec<String>), ScenarioError> {
     let mut written = Vec::new();
     let pics = heatmap::heatmaps(results, axes)
         .map_err(|msg| ScenarioError::field(out, "heatmap", msg))?;
-    for (name, png) in pics {
+    for (name, png) in pics.pictures {
         let p = out.join(name);
-        atrium_scenarios::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Io {
+        atrium_scenarios::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Write {
             file: p.clone(),
             err,
         })?;
@@ -118,7 +122,7 @@ pub fn write_pictures(
         let combined = maps::combine(out, trials)?;
         written.extend(maps::write_outputs(out, &combined, single)?);
     }
-    Ok(written)
+    Ok((written, pics.skipped))
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -190,42 +194,109 @@ pub fn canonical(mut rows: Vec<Row>) -> Vec<Row> {
     rows
 }
 
-/// Runs `sweep` into `settings.out`: `results.csv` (rows appended per finished trial, each
-/// batch one write + fsync, then sorted once the shard is complete) and `summary.md`.
-pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome, ScenarioError> {
-    let started = Instant::now();
+/// Refuses an output folder that cannot be written, before anything runs (and without
+/// writing anything): `out` is a folder, or can be created as one (its nearest existing
+/// ancestor is a folder), and a file can be created there.
+pub fn check_out(out: &Path) -> Result<(), ScenarioError> {
+    let refuse = |msg: String| ScenarioError::field(out, "--out", msg);
+    let mut existing = out;
+    while !existing.exists() {
+        match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => existing = p,
+            _ => {
+                existing = Path::new(".");
+                break;
+            }
+        }
+    }
+    if !existing.is_dir() {
+        return Err(refuse(match existing == out {
+            true => "is a file, not a folder: choose another --out".into(),
+            false => format!("{} is a file, not a folder", existing.display()),
+        }));
+    }
+    let probe = existing.join(format!(".atrium-write-probe.{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(refuse(format!(
+            "cannot write in {}: {e}",
+            existing.display()
+        ))),
+    }
+}
+
+/// Checks what can be checked of `settings` before the sweep `file` is even validated:
+/// `--jobs` within 1..=[`MAX_JOBS`] and a writable `--out`.
+pub fn check_settings(file: &Path, settings: &SweepSettings) -> Result<(), ScenarioError> {
     if let Some(n) = settings.jobs {
         if !(1..=MAX_JOBS).contains(&n) {
             return Err(ScenarioError::field(
-                &sweep.file,
+                file,
                 "--jobs",
                 format!("must be between 1 and {MAX_JOBS} worker threads, got {n}"),
             ));
         }
     }
+    check_out(&settings.out)
+}
+
+/// The inputs recorded in a results folder's `sweep.json` (none when it has none).
+fn recorded_inputs(out: &Path) -> Option<(String, Vec<InputFile>)> {
+    let text = std::fs::read_to_string(out.join("sweep.json")).ok()?;
+    let doc: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let inputs = serde_json::from_value(doc.get("inputs")?.clone()).ok()?;
+    Some((doc.get("sweep_text_hash")?.as_str()?.to_string(), inputs))
+}
+
+/// Runs `sweep` into `settings.out`: `results.csv` (rows appended per finished trial, each
+/// batch one write + fsync, then sorted once the shard is complete) and `summary.md`.
+pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome, ScenarioError> {
+    let started = Instant::now();
+    check_settings(&sweep.file, settings)?;
     let out = &settings.out;
-    let io = |file: &Path| {
+    let write_err = |file: &Path| {
         let file = file.to_path_buf();
-        move |err| ScenarioError::Io {
+        move |err| ScenarioError::Write {
             file: file.clone(),
             err,
         }
     };
-    std::fs::create_dir_all(out).map_err(io(out))?;
     let csv_path = out.join("results.csv");
     let axis_paths: Vec<String> = sweep.axes.iter().map(|a| a.path.clone()).collect();
     // Localizer count per trial: a trial is recorded only when all its rows are.
     let per_trial = sweep.cell_scenario(0)?.localizers.len();
+    let layout = Layout {
+        cells: sweep.cells(),
+        trials: sweep.trials,
+        shard: settings.shard.unwrap_or((0, 1)),
+    };
+    let sweep_text_hash = inputs::fnv_hex(&[sweep.text.as_bytes()]);
 
     let mut done: BTreeSet<(usize, usize)> = BTreeSet::new();
     if csv_path.exists() {
         let existing = csv::read_results(&csv_path)?;
         if existing.hash != sweep.hash {
+            let why = match recorded_inputs(out) {
+                Some((text_hash, old)) => {
+                    let mut changes = inputs::describe_changes(&old, &sweep.inputs);
+                    if text_hash != sweep_text_hash {
+                        changes.insert(0, format!("{} changed", sweep.file.display()));
+                    }
+                    match changes.is_empty() {
+                        true => String::new(),
+                        false => format!(": the inputs changed since ({})", changes.join(", ")),
+                    }
+                }
+                None => String::new(),
+            };
             return Err(ScenarioError::field(
                 &csv_path,
                 "hash",
                 format!(
-                    "results of a different sweep (hash {}, this sweep {}): choose another --out",
+                    "results of a different sweep (hash {}, this sweep {}){why}: choose another --out",
                     existing.hash, sweep.hash
                 ),
             ));
@@ -236,6 +307,21 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
                 "results",
                 "already holds results of this sweep: pass --resume to continue it, or choose another --out",
             ));
+        }
+        // The folder must end up holding exactly this run's shard: resuming shard 0/2 as 1/2
+        // would mix two shards under one header.
+        if let Some(old) = existing.layout {
+            if !layout.covers(&old) {
+                return Err(ScenarioError::field(
+                    &csv_path,
+                    "shard",
+                    format!(
+                        "holds shard {}/{}; this run is shard {}/{}, which does not include it: \
+                         resume it as the same shard (or as the whole sweep), or choose another --out",
+                        old.shard.0, old.shard.1, layout.shard.0, layout.shard.1
+                    ),
+                ));
+            }
         }
         // Keep only whole trials; the partial line and any trial missing rows are redone.
         let mut count: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
@@ -258,19 +344,23 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
                 .into_iter()
                 .filter(|r| done.contains(&(r.cell, r.trial)))
                 .collect(),
+            layout: Some(layout),
             ..existing
         };
         csv::write_atomic(&csv_path, &kept.to_text())?;
     } else {
+        std::fs::create_dir_all(out).map_err(write_err(out))?;
         csv::write_atomic(
             &csv_path,
-            &csv::header(&sweep.hash, &sweep.name, &axis_paths),
+            &csv::header(&sweep.hash, &sweep.name, Some(&layout), &axis_paths),
         )?;
     }
     let sweep_json = serde_json::json!({
         "sweep": sweep.file,
         "base": sweep.base_file,
         "hash": sweep.hash,
+        "sweep_text_hash": sweep_text_hash,
+        "inputs": sweep.inputs,
         "seed": sweep.seed,
         "trials_per_cell": sweep.trials,
         "cells": sweep.cells(),
@@ -285,35 +375,49 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         &serde_json::to_string_pretty(&sweep_json).unwrap_or_default(),
     )?;
 
-    let (shard_i, shard_n) = settings.shard.unwrap_or((0, 1));
     let mine: Vec<(usize, usize)> = (0..sweep.total_trials())
-        .filter(|g| g % shard_n == shard_i)
         .map(|g| (g / sweep.trials, g % sweep.trials))
+        .filter(|&(c, t)| layout.holds(c, t))
         .collect();
     let todo: Vec<(usize, usize)> = mine.iter().copied().filter(|k| !done.contains(k)).collect();
     let skipped = mine.len() - todo.len();
 
-    // Scenarios are parsed once per cell, not per trial, and each cell's maps (likelihood
-    // field, grids) are held while it has trials left, so its trials share one copy.
-    let cells: BTreeSet<usize> = todo.iter().map(|&(c, _)| c).collect();
-    let mut scenarios = std::collections::BTreeMap::new();
-    let mut held: std::collections::BTreeMap<usize, (Mutex<Option<SharedMaps>>, AtomicUsize)> =
-        Default::default();
-    for c in cells {
-        let scenario = sweep.cell_scenario(c)?;
-        if sweep.error_map.is_some() {
-            maps::write_world(out, c, &scenario.world)?;
-        }
-        let left = todo.iter().filter(|k| k.0 == c).count();
-        let warm = sweep.warm_cell(c, &scenario)?;
-        held.insert(c, (Mutex::new(Some(warm)), AtomicUsize::new(left)));
-        scenarios.insert(c, scenario);
+    // A cell's scenario is parsed and its maps (likelihood field, grids) are built when its
+    // first trial starts, shared by its trials, and dropped after its last: memory holds the
+    // cells in progress, not the whole sweep.
+    type Slot = Mutex<Option<std::sync::Arc<CellRun>>>;
+    let mut held: std::collections::BTreeMap<usize, (Slot, AtomicUsize)> = Default::default();
+    for &(c, _) in &todo {
+        held.entry(c)
+            .or_insert_with(|| (Mutex::new(None), AtomicUsize::new(0)))
+            .1
+            .fetch_add(1, Ordering::Relaxed);
     }
+    let cell_run = |cell: usize| -> Result<std::sync::Arc<CellRun>, ScenarioError> {
+        let slot = &held[&cell].0;
+        if let Some(run) = slot.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            return Ok(run.clone());
+        }
+        // Built without holding the lock: a build that waits on rayon work (a localizer's
+        // parallel training) may run another trial of this cell on this very thread, which
+        // would deadlock on it. Two first trials may both build; the first kept wins.
+        let scenario = sweep.cell_scenario(cell)?;
+        let maps = sweep.warm_cell(cell, &scenario)?;
+        let mut slot = slot.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(run) = slot.as_ref() {
+            return Ok(run.clone());
+        }
+        // Under the lock, so one thread writes the cell's world.
+        if sweep.error_map.is_some() {
+            maps::write_world(out, cell, &scenario.world)?;
+        }
+        Ok(slot.insert(std::sync::Arc::new((scenario, maps))).clone())
+    };
 
     let file = std::fs::OpenOptions::new()
         .append(true)
         .open(&csv_path)
-        .map_err(io(&csv_path))?;
+        .map_err(write_err(&csv_path))?;
     let file = Mutex::new(file);
     let bar = settings.progress.then(|| {
         let bar = indicatif::ProgressBar::new(todo.len() as u64);
@@ -328,19 +432,21 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     });
     let work = || {
         todo.par_iter().try_for_each(|&(cell, trial)| {
-            let rows = run_trial(sweep, &scenarios[&cell], cell, trial, out)?;
+            let run = cell_run(cell)?;
+            let rows = run_trial(sweep, &run.0, cell, trial, out)?;
+            drop(run);
             let batch: String = rows.iter().map(Row::to_line).collect();
             // One write of whole lines, then fsync, under the lock: rows of concurrent
             // trials never interleave and a kill leaves at most a partial last line.
             let mut f = file.lock().unwrap_or_else(|p| p.into_inner());
             f.write_all(batch.as_bytes())
                 .and_then(|_| f.sync_data())
-                .map_err(io(&csv_path))?;
+                .map_err(write_err(&csv_path))?;
             drop(f);
-            let (maps, left) = &held[&cell];
+            let (slot, left) = &held[&cell];
             if left.fetch_sub(1, Ordering::AcqRel) == 1 {
-                // The cell's last trial: free its maps.
-                maps.lock().unwrap_or_else(|p| p.into_inner()).take();
+                // The cell's last trial: free its scenario and maps.
+                slot.lock().unwrap_or_else(|p| p.into_inner()).take();
             }
             if let Some(b) = &bar {
                 b.inc(1);
@@ -371,7 +477,7 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     csv::write_atomic(&csv_path, &results.to_text())?;
     let summary_md = out.join("summary.md");
     csv::write_atomic(&summary_md, &summary::to_markdown(&results))?;
-    let pictures = write_pictures(
+    let (pictures, notes) = write_pictures(
         out,
         &results,
         &axis_labels(sweep),
@@ -385,9 +491,13 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         results_csv: csv_path,
         summary_md,
         pictures,
+        notes,
         wall_s: started.elapsed().as_secs_f64(),
     })
 }
+
+/// A cell's scenario and the maps its trials share.
+type CellRun = (atrium_scenarios::scenario::Scenario, SharedMaps);
 
 #[cfg(test)]
 mod tests {

@@ -37,6 +37,17 @@ pub fn table(results: &Results) -> BTreeMap<usize, BTreeMap<String, CellStats>> 
         .collect()
 }
 
+/// `s` on one line of Markdown: control characters (a newline in an axis value or sweep
+/// name) written as escapes, so a value cannot break the document's structure.
+pub(crate) fn one_line(s: &str) -> String {
+    s.chars()
+        .map(|c| match c.is_control() {
+            true => c.escape_default().to_string(),
+            false => c.to_string(),
+        })
+        .collect()
+}
+
 pub fn to_markdown(results: &Results) -> String {
     let mut params: BTreeMap<usize, &[String]> = BTreeMap::new();
     for r in &results.rows {
@@ -44,14 +55,15 @@ pub fn to_markdown(results: &Results) -> String {
     }
     let mut s = format!(
         "# Sweep {} (hash {})\n\nPer cell: min / median / max over trials of each trial's median position error, m.\n",
-        results.name, results.hash
+        one_line(&results.name),
+        results.hash
     );
     for (cell, locs) in table(results) {
         let p: Vec<String> = results
             .axis_paths
             .iter()
             .zip(params.get(&cell).copied().unwrap_or_default())
-            .map(|(k, v)| format!("{k} = {v}"))
+            .map(|(k, v)| one_line(&format!("{k} = {v}")))
             .collect();
         s.push_str(&format!("\n## Cell {cell}: {}\n\n", p.join(", ")));
         s.push_str("| localizer | trials | min | median | max |\n|---|---:|---:|---:|---:|\n");
