@@ -43,6 +43,19 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a scenario on every seed of a range and report on how many its expectations
+    /// held; exit 1 unless it passed on at least --min-pass seeds (default 90 %).
+    Check {
+        scenario: PathBuf,
+        /// Seeds: `1..10` (both included), `3..=5`, `7` or `1,4,9`.
+        #[arg(long, default_value = "1..10")]
+        seeds: String,
+        /// Seeds that must pass; default: 90 % of them, rounded up (9 of 10).
+        #[arg(long)]
+        min_pass: Option<usize>,
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a node-route scenario several times and print its node-error table (Table II of
     /// 002): per node and run, mm, for the landmark filter and every other localizer.
     Nodes {
@@ -196,18 +209,30 @@ fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, 
         .map(sweep::parse_shard)
         .transpose()
         .map_err(anyhow::Error::msg)?;
-    let s = sweep::Sweep::load_with(&file, registry.clone())?;
-    let out = args
-        .out
-        .unwrap_or_else(|| PathBuf::from(format!("sweep-{}", s.name)));
+    // The default folder is named like the sweep (`Sweep::name`: the file's stem).
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "sweep".into());
     let settings = sweep::SweepSettings {
-        out,
+        out: args
+            .out
+            .unwrap_or_else(|| PathBuf::from(format!("sweep-{stem}"))),
         jobs: args.jobs,
         shard,
         resume: args.resume,
         progress: std::io::stderr().is_terminal(),
     };
+    // Before validation, which may take a while: an unwritable --out or a bad --jobs is
+    // known now.
+    sweep::run::check_settings(&file, &settings)?;
+    let s = sweep::Sweep::load_reporting(&file, registry.clone(), &|done, total| {
+        eprintln!("validating sweep: {done}/{total} checks")
+    })?;
     let o = sweep::run_sweep(&s, &settings)?;
+    for note in &o.notes {
+        eprintln!("note: {note}");
+    }
     eprintln!(
         "ran {} trials ({} already recorded) in {:.1} s: {} and {}",
         o.ran,
@@ -276,6 +301,9 @@ fn run(
     out: Option<PathBuf>,
 ) -> Result<bool, BadInput> {
     let scenario = Scenario::load(&scenario_path)?;
+    if let Some(dir) = &out {
+        output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
+    }
     let show_progress = !json && std::io::stderr().is_terminal();
     let bar = show_progress.then(|| {
         let bar = indicatif::ProgressBar::new(1000);
@@ -317,6 +345,24 @@ fn run(
 
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
     match cli.command {
+        Some(Command::Check {
+            scenario,
+            seeds,
+            min_pass,
+            json,
+        }) => {
+            use atrium_experiments::seed_check;
+            let seeds = seed_check::parse_seeds(&seeds).map_err(anyhow::Error::msg)?;
+            let scenario = Scenario::load(&scenario)?;
+            let min_pass = min_pass.unwrap_or(seed_check::default_min_pass(seeds.len()));
+            let check = seed_check::check_seeds(registry, &scenario, &seeds, min_pass)?;
+            if json {
+                print_json(&check.to_json())?;
+            } else {
+                print!("{}", check.to_text());
+            }
+            Ok(check.passed())
+        }
         Some(Command::Nodes {
             scenario,
             runs,

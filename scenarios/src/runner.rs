@@ -68,6 +68,9 @@ pub struct Timing {
 #[derive(Debug, Clone)]
 pub struct RunResult {
     pub scenario: String,
+    /// The scenario's `description`: what the run shows (printed under the report's title,
+    /// so a designed failure is not mistaken for a bug).
+    pub description: String,
     pub seed: u64,
     pub world: String,
     pub robot: String,
@@ -169,12 +172,25 @@ pub struct SimStream<'a> {
     sim_s: f64,
 }
 
+/// A simulator error under the scenario field it is about: a spawn collision is the start
+/// pose's, a bad world the world file's, a bad robot the robot file's; anything else names the
+/// simulator's own field.
+fn sim_error(scenario: &Scenario, e: atrium_sim::SimError) -> ScenarioError {
+    let field = match &e {
+        atrium_sim::SimError::Spawn { .. } => "start.pose".to_string(),
+        atrium_sim::SimError::World { .. } => "world".to_string(),
+        atrium_sim::SimError::Robot { .. } => "robot".to_string(),
+        atrium_sim::SimError::Config { .. } => "simulation".to_string(),
+    };
+    ScenarioError::field(&scenario.file, field, e.to_string())
+}
+
 impl<'a> SimStream<'a> {
     /// The simulation of `scenario` with the simulator's stream derived from `seed`.
     pub fn new(scenario: &'a Scenario, seed: u64) -> Result<Self, ScenarioError> {
         let config = scenario.sim_config(derive_seed(seed, "sim"));
         let mut sim = Simulation::new(&scenario.world, &scenario.robot, config)
-            .map_err(|e| ScenarioError::field(&scenario.file, "start.pose", e.to_string()))?;
+            .map_err(|e| sim_error(scenario, e))?;
         match &scenario.node_route {
             Some(route) => sim
                 .set_node_route(&route.nodes, route.params)
@@ -475,6 +491,7 @@ pub fn run_localizers(
     let sim_time_s = summary.sim_time_s;
     Ok(RunResult {
         scenario: scenario.name.clone(),
+        description: scenario.description.clone(),
         seed,
         world: scenario.world.name.clone(),
         robot: scenario.robot.name.clone(),
