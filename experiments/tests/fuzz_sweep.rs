@@ -10,8 +10,9 @@
 
 use atrium_experiments::sweep::csv::{self, Layout, Results, Row};
 use atrium_experiments::sweep::Sweep;
+use atrium_fuzz::{apply, config, mutation, toml_number_spans};
 use proptest::prelude::*;
-use proptest::sample::{select, Index};
+use proptest::sample::select;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -149,85 +150,6 @@ fn load(text: &str) {
     }
 }
 
-#[derive(Debug, Clone)]
-enum Mutation {
-    Delete(Index, usize),
-    Insert(Index, &'static str),
-    Duplicate(Index, usize),
-    Number(Index, &'static str),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        (any::<Index>(), 1usize..40).prop_map(|(i, n)| Mutation::Delete(i, n)),
-        (any::<Index>(), select(TOKENS)).prop_map(|(i, t)| Mutation::Insert(i, t)),
-        (any::<Index>(), 1usize..120).prop_map(|(i, n)| Mutation::Duplicate(i, n)),
-        (any::<Index>(), select(NUMBERS)).prop_map(|(i, v)| Mutation::Number(i, v)),
-    ]
-}
-
-/// The previous char boundary at or before `at`.
-fn floor_boundary(s: &str, mut at: usize) -> usize {
-    at = at.min(s.len());
-    while !s.is_char_boundary(at) {
-        at -= 1;
-    }
-    at
-}
-
-/// Byte ranges of the numbers of a TOML text (a digit or `-` after ` `, `[`, `,` or `=`).
-fn number_spans(text: &str) -> Vec<(usize, usize)> {
-    let b = text.as_bytes();
-    let mut spans = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let boundary = i == 0 || b" [,=".contains(&b[i - 1]);
-        if boundary && (b[i].is_ascii_digit() || b[i] == b'-') {
-            let mut j = i;
-            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"-.+_".contains(&b[j])) {
-                j += 1;
-            }
-            spans.push((i, j));
-            i = j;
-        } else {
-            i += 1;
-        }
-    }
-    spans
-}
-
-fn apply(text: &str, mutations: &[Mutation]) -> String {
-    let mut s = text.to_string();
-    for m in mutations {
-        let at = |i: &Index, s: &str| floor_boundary(s, i.index(s.len() + 1));
-        match m {
-            Mutation::Delete(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                s.replace_range(a..b, "");
-            }
-            Mutation::Insert(i, t) => {
-                let a = at(i, &s);
-                s.insert_str(a, t);
-            }
-            Mutation::Duplicate(i, n) => {
-                let a = at(i, &s);
-                let b = floor_boundary(&s, a + n);
-                let piece = s[a..b].to_string();
-                s.insert_str(b, &piece);
-            }
-            Mutation::Number(i, v) => {
-                let spans = number_spans(&s);
-                if !spans.is_empty() {
-                    let (a, b) = spans[i.index(spans.len())];
-                    s.replace_range(a..b, v);
-                }
-            }
-        }
-    }
-    s
-}
-
 /// A results file of random content; `n_params` columns of parameters.
 fn results(name: String, paths: Vec<String>, cells: Vec<Vec<String>>) -> Results {
     let rows = cells
@@ -258,15 +180,6 @@ fn results(name: String, paths: Vec<String>, cells: Vec<Vec<String>>) -> Results
         axis_paths: paths,
         rows,
         dropped_partial: false,
-    }
-}
-
-fn config(cases: u32) -> ProptestConfig {
-    ProptestConfig {
-        cases,
-        // Failures are kept as explicit tests below, not in a regressions file.
-        failure_persistence: None,
-        ..ProptestConfig::default()
     }
 }
 
@@ -404,8 +317,8 @@ proptest! {
     }
 
     #[test]
-    fn mutated_sweeps_never_panic(mutations in prop::collection::vec(mutation(), 1..6)) {
-        load(&apply(BASE, &mutations));
+    fn mutated_sweeps_never_panic(mutations in prop::collection::vec(mutation(TOKENS, NUMBERS), 1..6)) {
+        load(&apply(BASE, &mutations, toml_number_spans));
     }
 
     #[test]
@@ -432,13 +345,13 @@ proptest! {
 
     #[test]
     fn damaged_results_files_read_or_fail_cleanly(
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation(TOKENS, NUMBERS), 1..6),
     ) {
         let r = results("n".into(), vec!["a".into(), "b,c".into()], vec![
             vec!["1".into(), "x\ny".into(), "l".into()],
             vec!["\"q\"".into(), "2".into(), "m".into()],
         ]);
-        let _ = csv::parse_results(&apply(&r.to_text(), &mutations));
+        let _ = csv::parse_results(&apply(&r.to_text(), &mutations, toml_number_spans));
     }
 }
 
