@@ -299,14 +299,7 @@ pub fn depth_from_message(
         }
     };
     let step = msg.step as usize;
-    // Width, height and step come from the file: checked arithmetic (u32 products overflow
-    // in release builds), and the pixels must be there before anything is allocated for them.
-    let row = w.checked_mul(bpp);
-    let need = row.and_then(|row| step.checked_mul(h.checked_sub(1)?)?.checked_add(row));
-    let fits =
-        matches!((row, need), (Some(row), Some(need)) if step >= row && msg.data.len() >= need);
-    // An empty image would also let a huge height loop over rows of nothing.
-    if w == 0 || h == 0 || !fits {
+    if !super::images::image_fits(w, h, step, bpp, msg.data.len()) {
         return Err(format!(
             "{}x{} image of {} bytes with step {step} is empty or too short",
             w,

@@ -139,13 +139,7 @@ pub fn fill_disparity(
 fn rows<'a>(msg: &'a fg::RawImage, bpp: usize, what: &str) -> Result<Vec<&'a [u8]>, String> {
     let (w, h) = (msg.width as usize, msg.height as usize);
     let step = msg.step as usize;
-    // Width, height and step come from the file: checked arithmetic (u32 products overflow
-    // in release builds) before any slicing.
-    let row = w.checked_mul(bpp);
-    let need = row.and_then(|row| step.checked_mul(h.checked_sub(1)?)?.checked_add(row));
-    let fits =
-        matches!((row, need), (Some(row), Some(need)) if step >= row && msg.data.len() >= need);
-    if w == 0 || h == 0 || !fits {
+    if !image_fits(w, h, step, bpp, msg.data.len()) {
         return Err(format!(
             "{what}: {w}x{h} image of {} bytes with step {step} is empty or too short",
             msg.data.len()
@@ -232,6 +226,16 @@ pub fn disparity_from_message(
         baseline: need("baseline")?,
         disparity,
     })
+}
+
+/// A `w × h` image of `bpp` bytes a pixel, rows `step` bytes apart, is non-empty and lies
+/// within `len` bytes. Width, height and step come from the file: checked arithmetic (u32
+/// products overflow in release builds) before anything is sliced or allocated, and an empty
+/// image would let a huge height loop over rows of nothing.
+pub(crate) fn image_fits(w: usize, h: usize, step: usize, bpp: usize, len: usize) -> bool {
+    let row = w.checked_mul(bpp);
+    let need = row.and_then(|row| step.checked_mul(h.checked_sub(1)?)?.checked_add(row));
+    w > 0 && h > 0 && matches!((row, need), (Some(row), Some(need)) if step >= row && len >= need)
 }
 
 #[cfg(test)]
