@@ -13,6 +13,7 @@ pub mod camera_sensors;
 pub mod error;
 pub mod error_maps;
 pub mod expect;
+pub mod load_cache;
 pub mod map_cache;
 pub mod maps;
 pub mod metrics;

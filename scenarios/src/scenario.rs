@@ -564,9 +564,9 @@ impl Scenario {
         let dir = file.parent().unwrap_or(Path::new("."));
         let world_file = dir.join(&raw.world);
         let robot_file = dir.join(&raw.robot);
-        let mut world = World::load(&world_file)?;
+        let mut world = crate::load_cache::world(&world_file)?;
         add_clutter(file, &mut world, &raw.clutter)?;
-        let robot = RobotModel::from_urdf(&robot_file)?;
+        let robot = crate::load_cache::robot(&robot_file)?;
 
         check_positive(file, "duration_s", raw.duration_s)?;
         if raw.duration_s > MAX_DURATION_S {

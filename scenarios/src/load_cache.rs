@@ -1,0 +1,97 @@
+//! Process-wide memo of parsed world and robot files. A sweep validates every cell by loading
+//! its scenario, and every cell names the same world and URDF: parsing and validating them
+//! again per cell was 93 % of validating a 10,000-cell sweep.
+//!
+//! The file is read on every call and the memo is keyed by its path and its full text (never
+//! a hash, so a key cannot collide): an edited file is parsed afresh, and a hit returns exactly
+//! what parsing would. Only successful parses are kept (an error is cheap to find again and
+//! must name the file as read now). The memo holds at most [`CAPACITY`] files of each kind.
+
+use atrium_robots::{RobotError, RobotModel};
+use atrium_worlds::{World, WorldError};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+
+/// Distinct files kept per kind; a sweep names one world and one robot, a test binary a few
+/// dozen. When full the memo is emptied (simplest bound; a miss only costs a parse).
+const CAPACITY: usize = 64;
+
+type Memo<T> = Mutex<HashMap<(PathBuf, String), T>>;
+
+fn lookup_or_parse<T: Clone, E>(
+    memo: &'static OnceLock<Memo<T>>,
+    path: &Path,
+    text: String,
+    parse: impl FnOnce(&str) -> Result<T, E>,
+) -> Result<T, E> {
+    let memo = memo.get_or_init(|| Mutex::new(HashMap::new()));
+    let key = (path.to_path_buf(), text);
+    if let Some(hit) = memo.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+        return Ok(hit.clone());
+    }
+    // Parsed outside the lock: other files proceed meanwhile; two threads parsing the same
+    // file at once both get equal values.
+    let value = parse(&key.1)?;
+    let mut map = memo.lock().unwrap_or_else(|p| p.into_inner());
+    if map.len() >= CAPACITY {
+        map.clear();
+    }
+    map.insert(key, value.clone());
+    Ok(value)
+}
+
+/// [`World::load`], memoised by path and content.
+pub fn world(path: &Path) -> Result<World, WorldError> {
+    static MEMO: OnceLock<Memo<World>> = OnceLock::new();
+    let text = std::fs::read_to_string(path).map_err(|err| WorldError::Io {
+        file: path.to_path_buf(),
+        err,
+    })?;
+    lookup_or_parse(&MEMO, path, text, |t| World::from_toml_str(t, path))
+}
+
+/// [`RobotModel::from_urdf`], memoised by path and content.
+pub fn robot(path: &Path) -> Result<RobotModel, RobotError> {
+    static MEMO: OnceLock<Memo<RobotModel>> = OnceLock::new();
+    let text = std::fs::read_to_string(path).map_err(|err| RobotError::Io {
+        source_name: path.display().to_string(),
+        err,
+    })?;
+    lookup_or_parse(&MEMO, path, text, |t| {
+        RobotModel::from_urdf_str(t, &path.display().to_string())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bundled(rel: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+    }
+
+    #[test]
+    fn a_hit_equals_a_fresh_parse() {
+        let w = bundled("../worlds/campus.toml");
+        assert_eq!(world(&w).unwrap(), World::load(&w).unwrap());
+        assert_eq!(world(&w).unwrap(), World::load(&w).unwrap());
+    }
+
+    #[test]
+    fn an_edited_file_is_parsed_again() {
+        let dir = std::env::temp_dir().join(format!("atrium-load-cache-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("w.toml");
+        let text = std::fs::read_to_string(bundled("../worlds/campus.toml")).unwrap();
+        std::fs::write(&file, &text).unwrap();
+        assert_eq!(world(&file).unwrap().name, "campus");
+        let renamed = text.replacen("name = \"campus\"", "name = \"renamed campus\"", 1);
+        std::fs::write(&file, renamed).unwrap();
+        assert_eq!(world(&file).unwrap().name, "renamed campus");
+        std::fs::write(&file, "not a world").unwrap();
+        let err = world(&file).unwrap_err().to_string();
+        assert!(err.contains("w.toml"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
