@@ -507,9 +507,29 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
     }
 }
 
+/// Ctrl-C, SIGTERM or SIGHUP remove the files being written under temporary names (a
+/// recording's `.partial`, an atomic write's temporary) and exit with 130, so an interrupted
+/// command leaves its output folder as it found it; a sweep's appended `results.csv` stays for
+/// `--resume`. Only SIGKILL still leaves a `.partial` (a later `record` replaces it).
+fn remove_unfinished_on_interrupt() {
+    let installed = ctrlc::set_handler(|| {
+        for file in atrium_scenarios::output::remove_unfinished() {
+            eprintln!("interrupted: removed unfinished {}", file.display());
+        }
+        eprintln!("interrupted");
+        std::process::exit(130);
+    });
+    if let Err(e) = installed {
+        eprintln!(
+            "warning: cannot catch interrupts ({e}); an interrupted record leaves <out>.partial"
+        );
+    }
+}
+
 /// Parses the command line and runs `atrium` with the localizer kinds of `registry`.
 pub fn main_with(registry: LocalizerRegistry) -> ExitCode {
     let cli = Cli::parse();
+    remove_unfinished_on_interrupt();
     match main_inner(&registry, cli) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),

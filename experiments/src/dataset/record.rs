@@ -82,6 +82,8 @@ struct Schemas {
 pub struct Recorder {
     writer: Option<mcap::Writer<BufWriter<File>>>,
     tmp: PathBuf,
+    /// Removes `tmp` if the process is interrupted; dropped after the rename or removal.
+    _unfinished: atrium_scenarios::output::Unfinished,
     path: PathBuf,
     schemas: Schemas,
     channels: HashMap<String, u16>,
@@ -175,7 +177,8 @@ impl Recorder {
         };
         let world_hash = hash_of(&scenario.world_file)?;
         let robot_hash = hash_of(&scenario.robot_file)?;
-        // Truncates a partial file an earlier killed run left behind.
+        let unfinished = atrium_scenarios::output::Unfinished::register(&tmp);
+        // Truncates a partial file an earlier run left (only a SIGKILL or a power cut can).
         let file = File::create(&tmp).map_err(|e| write_err(path, e))?;
         let created = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
@@ -209,6 +212,7 @@ impl Recorder {
             writer: Some(writer),
             path: path.to_path_buf(),
             tmp,
+            _unfinished: unfinished,
             schemas,
             channels: HashMap::new(),
             sequence: HashMap::new(),
