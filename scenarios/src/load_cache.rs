@@ -8,7 +8,7 @@
 //! must name the file as read now). The memo holds at most [`CAPACITY`] files of each kind.
 
 use atrium_robots::{RobotError, RobotModel};
-use atrium_worlds::{World, WorldError};
+use atrium_worlds::{GeneratorRegistry, World, WorldError};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
@@ -41,14 +41,18 @@ fn lookup_or_parse<T: Clone, E>(
     Ok(value)
 }
 
-/// [`World::load`], memoised by path and content.
+/// The world of a world or generator file ([`atrium_worlds::world_from_text`] with the
+/// bundled generator kinds), memoised by path and content: a sweep over one generator file
+/// generates its world once.
 pub fn world(path: &Path) -> Result<World, WorldError> {
     static MEMO: OnceLock<Memo<World>> = OnceLock::new();
     let text = std::fs::read_to_string(path).map_err(|err| WorldError::Io {
         file: path.to_path_buf(),
         err,
     })?;
-    lookup_or_parse(&MEMO, path, text, |t| World::from_toml_str(t, path))
+    lookup_or_parse(&MEMO, path, text, |t| {
+        atrium_worlds::world_from_text(t, path, &GeneratorRegistry::with_builtins())
+    })
 }
 
 /// [`RobotModel::from_urdf`], memoised by path and content.

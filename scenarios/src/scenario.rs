@@ -564,6 +564,8 @@ impl Scenario {
         let dir = file.parent().unwrap_or(Path::new("."));
         let world_file = dir.join(&raw.world);
         let robot_file = dir.join(&raw.robot);
+        // `world` names an explicit world file or a generator file (`generator = ...`), whose
+        // world is generated and then validated by the same loader.
         let mut world = crate::load_cache::world(&world_file)?;
         add_clutter(file, &mut world, &raw.clutter)?;
         let robot = crate::load_cache::robot(&robot_file)?;

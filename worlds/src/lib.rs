@@ -4,16 +4,22 @@
 
 pub mod error;
 pub mod furniture;
+pub mod generate;
 pub mod geometry;
 pub mod lighting;
 pub mod loader;
 pub mod map;
+pub mod sdf;
 pub mod wifi;
 pub mod world;
 
 pub use error::{MapError, WorldError};
 pub use furniture::FurnitureBox;
+pub use generate::{
+    load_world_or_generator, world_from_text, GeneratorFile, GeneratorParams, GeneratorRegistry,
+};
 pub use loader::{MAX_COORDINATE_M, MAX_POLYGON_POINTS, MIN_SIZE_M};
 pub use map::{Cell, GridSize, OccupancyGrid, Segment, VectorMap};
+pub use sdf::to_sdf;
 pub use wifi::{AccessPoint, WifiEnvironment};
 pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World, CAMPUS_TOML};
