@@ -51,6 +51,12 @@ pub struct NodeExperimentSettings {
     /// (tyre pressure and load differ between runs of a real chair). 0: every run has the
     /// scenario's calibration, and runs differ only in sensor noise.
     pub calibration_spread: f64,
+    /// Also run the filter with 002's own reset (Table I update(): x, y := x_n, y_n, heading
+    /// kept; `scan_alignment = false`, `gamma_rule = "rim"`) on the same seeds and
+    /// calibrations, in runs of its own (the filter steers the robot, so two filters cannot
+    /// share a run), and print its table beside the scenario's filter. No claim is checked
+    /// on it: see [`NodeExperiment::paper`].
+    pub paper_reset: bool,
 }
 
 /// The most runs one node table may ask for: each is a whole scenario run (seconds to
@@ -79,6 +85,7 @@ impl Default for NodeExperimentSettings {
             improvement_min: None,
             baseline: String::new(),
             calibration_spread: 0.0,
+            paper_reset: false,
         }
     }
 }
@@ -196,6 +203,8 @@ pub struct NodeCheck {
 #[derive(Debug, Clone, Serialize)]
 pub struct NodeExperiment {
     pub scenario: String,
+    /// The landmark filter whose node instants make the table.
+    pub filter: String,
     pub seeds: Vec<u64>,
     /// Per run: the odometry's (radius_error, separation_error).
     pub calibration: Vec<(f64, f64)>,
@@ -214,6 +223,9 @@ pub struct NodeExperiment {
     /// reaching this node").
     pub reach: NodeTable,
     pub checks: Vec<NodeCheck>,
+    /// With `paper_reset`: the same experiment with 002's reset (its own runs, same seeds and
+    /// calibrations; no checks).
+    pub paper: Option<Box<NodeExperiment>>,
 }
 
 impl NodeExperiment {
@@ -239,8 +251,37 @@ impl NodeExperiment {
         for (a, b) in &self.calibration {
             s.push_str(&format!(" ({a:.4}, {b:.4})"));
         }
+        s.push('\n');
+        s.push_str(&self.tables_text());
+        if let Some(p) = &self.paper {
+            s.push_str(&format!(
+                "\n--- {:?} with 002's reset (Table I: x, y := node, heading kept), same seeds \
+                 and calibrations, runs of its own ---\n",
+                p.filter
+            ));
+            s.push_str(&p.tables_text());
+        }
+        s.push_str(&self.summary());
+        if !self.checks.is_empty() {
+            s.push('\n');
+            for c in &self.checks {
+                s.push_str(&format!(
+                    "{} {} (limit {}): {}\n",
+                    if c.passed { "PASS" } else { "FAIL" },
+                    c.what,
+                    c.limit,
+                    c.value.map_or("-".to_string(), |v| format!("{v:.4}"))
+                ));
+            }
+        }
+        s
+    }
+
+    /// The trained models and the node tables (no title, summary or checks).
+    fn tables_text(&self) -> String {
+        let mut s = String::new();
         s.push_str(
-            "\ntrained nodes: gamma_n | largest gamma inside rho | smallest gamma beyond 2 rho\n",
+            "trained nodes: gamma_n | largest gamma inside rho | smallest gamma beyond 2 rho\n",
         );
         for (n, m) in self.models.iter().enumerate() {
             s.push_str(&format!(
@@ -276,17 +317,44 @@ impl NodeExperiment {
         if self.verified.iter().flatten().any(|v| !v) {
             s.push_str("\n* reached by odometry, not verified by the landmark\n");
         }
-        if !self.checks.is_empty() {
-            s.push('\n');
-            for c in &self.checks {
-                s.push_str(&format!(
-                    "{} {} (limit {}): {}\n",
-                    if c.passed { "PASS" } else { "FAIL" },
-                    c.what,
-                    c.limit,
-                    c.value.map_or("-".to_string(), |v| format!("{v:.4}"))
-                ));
+        s
+    }
+}
+
+impl NodeExperiment {
+    /// One line per method: nodes verified, mean and largest node error, mm.
+    fn summary(&self) -> String {
+        let verified = |e: &NodeExperiment| {
+            let v = e.verified.iter().flatten().filter(|v| **v).count();
+            format!("{v}/{}", e.verified.iter().flatten().count())
+        };
+        let mm = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", 1000.0 * v));
+        let mut s = format!(
+            "\nsummary over seeds {:?}: method | nodes verified | mean node error | largest, mm\n",
+            self.seeds
+        );
+        let mut rows: Vec<(String, &NodeExperiment, &NodeTable)> = Vec::new();
+        if let Some(f) = self.table(&self.filter) {
+            rows.push((format!("{} (as configured)", f.localizer), self, f));
+        }
+        if let Some(p) = &self.paper {
+            if let Some(f) = p.table(&p.filter) {
+                rows.push((format!("{} with 002's reset", f.localizer), p, f));
             }
+            for t in p.tables.iter().filter(|t| t.localizer != p.filter) {
+                rows.push((format!("{} (runs of 002's reset)", t.localizer), p, t));
+            }
+        }
+        for t in self.tables.iter().filter(|t| t.localizer != self.filter) {
+            rows.push((format!("{} (runs of the first row)", t.localizer), self, t));
+        }
+        for (name, e, t) in rows {
+            s.push_str(&format!(
+                "  {name:<44} {:>7} {:>9} {:>9}\n",
+                verified(e),
+                mm(t.mean()),
+                mm(t.max())
+            ));
         }
         s
     }
@@ -344,6 +412,42 @@ pub fn run_experiment(
     let seeds: Vec<u64> = (0..runs as u64)
         .map(|i| scenario.seed.wrapping_add(i))
         .collect();
+    let mut exp = run_variant(registry, scenario, route, settings, &seeds)?;
+    exp.checks = checks(&exp, settings);
+    if settings.paper_reset {
+        // 002's own method: the same filter with Table I's reset and the γ_n of Fig. 4c.
+        let mut paper = scenario.clone();
+        let spec = paper
+            .localizers
+            .iter_mut()
+            .find(|l| l.name == settings.localizer)
+            .ok_or_else(|| ScenarioError::field(file, "node_experiment.localizer", "not found"))?;
+        spec.params
+            .insert("scan_alignment".into(), toml::Value::Boolean(false));
+        spec.params
+            .insert("gamma_rule".into(), toml::Value::String("rim".into()));
+        // The ρ/2 model disk of the default: Table I's reset inherits where the robot
+        // stands, so the node's model must be where the robot should be, not the whole
+        // disk it may cross.
+        spec.params.remove("model_radius");
+        exp.paper = Some(Box::new(run_variant(
+            registry, &paper, route, settings, &seeds,
+        )?));
+    }
+    Ok(exp)
+}
+
+/// The runs of one filter configuration (seeds `seeds`, each with its drawn calibration),
+/// without checks.
+fn run_variant(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    route: &NodeRoute,
+    settings: &NodeExperimentSettings,
+    seeds: &[u64],
+) -> Result<NodeExperiment, ScenarioError> {
+    let file = &scenario.file;
+    let runs = seeds.len();
     let spec = scenario
         .localizers
         .iter()
@@ -410,9 +514,10 @@ pub fn run_experiment(
             }
         }
     }
-    let mut exp = NodeExperiment {
+    Ok(NodeExperiment {
         scenario: scenario.name.clone(),
-        seeds,
+        filter: settings.localizer.clone(),
+        seeds: seeds.to_vec(),
         calibration,
         models,
         nodes: route.nodes.clone(),
@@ -421,9 +526,8 @@ pub fn run_experiment(
         tables,
         reach,
         checks: Vec::new(),
-    };
-    exp.checks = checks(&exp, settings);
-    Ok(exp)
+        paper: None,
+    })
 }
 
 fn checks(exp: &NodeExperiment, s: &NodeExperimentSettings) -> Vec<NodeCheck> {

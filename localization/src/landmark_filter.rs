@@ -235,6 +235,27 @@ pub struct LandmarkFilterParams {
     /// the leg's heading and at ± this, because a robot arrives with a heading error of a
     /// few degrees and a 180° scan turned by that shifts ranges between histogram bins.
     pub survey_heading: f64,
+    /// How γ_n is learnt ([`GammaRule`]).
+    pub gamma_rule: GammaRule,
+}
+
+/// How [`train`] sets a node's threshold γ_n.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GammaRule {
+    /// 002 §IV-B, Fig. 4c: γ falls as the robot approaches the node, and γ_n "verifies whether
+    /// a landmark is relatively close": γ_n is the γ the recursion has when the teach run
+    /// crosses the ρ circle on its approach (the largest over the teach runs, times
+    /// `gamma_margin`). The landmark then fires where the robot truly is about ρ from the
+    /// node, whatever its odometry says, so a reset leaves an error of about ρ (Table II)
+    /// that does not add up from node to node.
+    Rim,
+    /// `gamma_margin` × the largest γ seen anywhere within the model radius (teach runs and
+    /// the survey, every heading): fires wherever the odometry gate opens. Loose on purpose
+    /// for `scan_alignment`, which measures the offset instead of inheriting it; with the
+    /// paper's reset it lets the landmark fire 0.4–0.9 m out, and every reset then adds about
+    /// −ρ along the leg to the pose error (measured in issue 16).
+    Disk,
 }
 
 impl Default for LandmarkFilterParams {
@@ -250,6 +271,7 @@ impl Default for LandmarkFilterParams {
             scan_alignment: true,
             training_runs: 3,
             survey_heading: 0.07,
+            gamma_rule: GammaRule::Disk,
         }
     }
 }
@@ -462,11 +484,15 @@ pub fn train(
         // Replay the scans heading for node n, leg by leg, as the filter will see them.
         let mut inside_max: Option<f64> = None;
         let mut outside_min: Option<f64> = None;
+        // γ at the first scan of each approach inside ρ (GammaRule::Rim).
+        let mut rim_max: Option<f64> = None;
+        let mut rim_seen = false;
         let mut prev_target = usize::MAX;
         for s in scans {
             if s.target != prev_target {
                 model.reset();
                 prev_target = s.target;
+                rim_seen = false;
             }
             if s.target != n {
                 continue;
@@ -477,6 +503,10 @@ pub fn train(
                 continue;
             }
             let g = model.gamma();
+            if !rim_seen && near(s, n, params.rho) {
+                rim_seen = true;
+                rim_max = Some(rim_max.map_or(g, |m| m.max(g)));
+            }
             if near(s, n, r_model) {
                 inside_max = Some(inside_max.map_or(g, |m| m.max(g)));
             } else if !near(s, n, 2.0 * params.rho) {
@@ -503,6 +533,17 @@ pub fn train(
             if out > inside_max && inside_max > 0.0 && gamma_n >= out {
                 gamma_n = (inside_max * out).sqrt();
             }
+        }
+        if params.gamma_rule == GammaRule::Rim {
+            gamma_n = params.gamma_margin
+                * rim_max.ok_or_else(|| {
+                    LocalizationError::InvalidParameter(format!(
+                        "training: no teach run crossed the rho circle of node {n} ({node:?}) \
+                         after the first {} scans (warmup_steps); gamma_rule = \"rim\" needs \
+                         one",
+                        params.warmup_steps
+                    ))
+                })?;
         }
         let reference = scans
             .iter()

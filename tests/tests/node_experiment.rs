@@ -43,6 +43,31 @@ fn wheelchair_node_table_over_five_runs() {
     );
     let (f, o) = (filter.mean().unwrap(), odometry.mean().unwrap());
     assert!(o > 5.0 * f, "filter {f} m vs odometry {o} m");
+    // 002's own reset runs beside it (issue 16). What holds there: the first node is verified
+    // by its landmark on every run, with the robot truly about ρ from it (Table II: 217-268 mm),
+    // which dead reckoning (no verification at all) cannot do. What does not hold yet, and is
+    // deliberately not claimed: later nodes (10/30 verified on seeds 1-5; see NOTES.md).
+    let paper = exp
+        .paper
+        .as_ref()
+        .expect("paper_reset = true runs 002's reset");
+    assert_eq!(paper.seeds, exp.seeds);
+    assert_eq!(paper.calibration, exp.calibration);
+    for r in 0..5 {
+        assert!(
+            paper.verified[0][r],
+            "002 reset, run {r}: node 1 not verified"
+        );
+        assert!(!paper.aligned[0][r], "002 reset must not align");
+        let d = paper.reach.errors[0][r].unwrap();
+        assert!(
+            (0.15..=0.30).contains(&d),
+            "002 reset, run {r}: node 1 at {d} m"
+        );
+        // Table I's reset puts the pose on the node itself, so its error is that distance.
+        let e = paper.table("filter").unwrap().errors[0][r].unwrap();
+        assert!((e - d).abs() < 0.02, "run {r}: {e} vs {d}");
+    }
     // The scenario's own expectations (the paper's claims) hold.
     assert!(exp.passed(), "{}", exp.to_text());
 }

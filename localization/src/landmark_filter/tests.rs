@@ -322,3 +322,63 @@ fn training_runs_above_the_limit_are_refused() {
         "training_runs: 1000000000000 is more than the limit of 100 (MAX_TRAINING_RUNS)"
     );
 }
+
+#[test]
+fn the_rim_rule_sets_gamma_n_where_the_approach_crosses_rho() {
+    // One approach, 1.0 m to 0 m from the node in 0.1 m steps: the landmark's 60 beams come
+    // nearer as the robot approaches, so γ falls toward the node (002 Fig. 4c).
+    let nodes = [[5.0, 0.0]];
+    let scans: Vec<TrainingScan> = (0..=10)
+        .map(|k| {
+            let d = 1.0 - 0.1 * k as f64;
+            TrainingScan {
+                pose: Pose2::new(5.0 - d, 0.0, 0.0),
+                target: 0,
+                ranges: ranges(60, 0.7 + d, 3.5),
+                range_max: 8.0,
+                geometry: Default::default(),
+            }
+        })
+        .collect();
+    let params = LandmarkFilterParams {
+        warmup_steps: 2,
+        gamma_rule: GammaRule::Rim,
+        ..Default::default()
+    };
+    let m = &train(&nodes, &scans, &[], &params).unwrap()[0];
+    // Replay: the first scan within ρ = 0.25 m is the one 0.2 m out (k = 8).
+    let mut model = RecursiveLandmarkModel::new(m.conditional, params.observation_weight);
+    let mut at_rim = f64::NAN;
+    for (k, s) in scans.iter().enumerate() {
+        model.update(LandmarkSignature::from_ranges(&s.ranges, 8.0).bins());
+        if k == 8 {
+            at_rim = model.gamma();
+        }
+    }
+    assert!((m.gamma_n - params.gamma_margin * at_rim).abs() < 1e-15 * at_rim.max(1.0));
+    // The disk rule takes the largest γ over the model disk instead: never tighter here.
+    let disk = LandmarkFilterParams {
+        gamma_rule: GammaRule::Disk,
+        model_radius: 0.25,
+        ..params.clone()
+    };
+    let d = &train(&nodes, &scans, &[], &disk).unwrap()[0];
+    assert!(
+        d.gamma_n >= m.gamma_n,
+        "disk {} rim {}",
+        d.gamma_n,
+        m.gamma_n
+    );
+    // No teach scan inside ρ (only a survey scan there): the rim rule has nothing to learn
+    // from and says so.
+    let outside: Vec<TrainingScan> = scans[..8].to_vec();
+    let survey = vec![TrainingScan {
+        pose: Pose2::new(5.0, 0.0, 0.0),
+        ..scans[10].clone()
+    }];
+    assert!(train(&nodes, &outside, &survey, &disk).is_ok());
+    let e = train(&nodes, &outside, &survey, &params)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("node 0") && e.contains("rim"), "{e}");
+}
