@@ -19,11 +19,22 @@
 //! - Augmentation: a new feature from the inverse observation, with its cross-covariances.
 //! - Association: known (detector ids) or gated nearest neighbour on the Mahalanobis distance
 //!   νᵀ S⁻¹ ν (χ², 2 degrees of freedom).
-//! - Fault injection (§4's faulty run): after each update the cross-covariances of the chosen
-//!   features with the rest of the state are multiplied by `fault_gamma` < 1, as a bug in the
-//!   covariance update would; their correlations weaken, so their P_d grow. The result is
-//!   still a valid covariance (a convex combination of P and its block diagonal), so the
-//!   filter runs on and only the monitor can tell.
+//! - Fault injection (§4's faulty run: "incorrect update of the covariance of certain mapped
+//!   features, causing the feature correlations to worsen over time"). In both modes P stays a
+//!   valid covariance (the correct posterior plus a positive semi-definite term, or a convex
+//!   combination of P and its block diagonal), so the filter runs on and only the monitor
+//!   can tell. `fault_mode`:
+//!   - `inflate` (default): the update never corrects the chosen features' own 2 × 2 blocks
+//!     and adds `fault_q` · I to them at every update, so their marginal covariance grows
+//!     linearly while every other entry is updated as usual. Their P_d (eq. 13) with every
+//!     other feature grows at run scale, the symptom of Fig. 6–8 (the maximum ellipse grows
+//!     even when no feature is new, the minimum keeps shrinking). Both halves are needed: with
+//!     only the missing correction P_d stays flat; with only the added noise each re-sighting
+//!     undoes it, so P_d swings with the loop around a bounded level.
+//!   - `decorrelate`: after each Kalman update the chosen features' cross-covariances are
+//!     multiplied by `fault_gamma` < 1. Each step makes their P_d grow, so the per-pair check
+//!     flags them, but the filter then double-counts their observations and grows
+//!     overconfident: at run scale every P_d ends about 10× *below* the correct filter's.
 //!
 //! Bad input never panics: non-finite odometry, a detection at zero or non-finite range, a
 //! singular or non-finite innovation covariance are skipped and counted in [`SlamIssues`].
@@ -46,6 +57,20 @@ pub enum AssociationMode {
     Known,
     /// Ignore ids: gated nearest neighbour on the Mahalanobis distance.
     NearestNeighbour,
+}
+
+/// How the covariance update of the fault-injected features is corrupted ([003] §4's faulty
+/// run: "incorrect update of the covariance of certain mapped features"; see the module notes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaultMode {
+    /// The update leaves each faulty feature's own 2 × 2 block uncorrected and adds
+    /// `fault_q` · I (m²) to it: their relative covariances grow over the run.
+    Inflate,
+    /// After every Kalman update the cross-covariances of the faulty features with the rest
+    /// of the state are multiplied by `fault_gamma`: flagged per pair, but the filter grows
+    /// overconfident and every relative covariance shrinks at run scale.
+    Decorrelate,
 }
 
 /// Parameters of [`EkfSlam`] (scenario: `[[localizers]] kind = "ekf_slam"` plus these keys).
@@ -79,8 +104,14 @@ pub struct EkfSlamParams {
     pub max_features: usize,
     /// Fault injection: features (map order, from 0) whose covariance update is corrupted.
     pub fault_features: Vec<usize>,
-    /// Factor on their cross-covariances after every update, in (0, 1].
+    /// How their covariance update is corrupted.
+    pub fault_mode: FaultMode,
+    /// `decorrelate`: factor on their cross-covariances after every update, in (0, 1].
     pub fault_gamma: f64,
+    /// `inflate`: variance (m²) added to each coordinate of a faulty feature per update
+    /// (detection batch). Default 4e-6: at 5 Hz, the 3000 updates of 10 min add up to about
+    /// 0.11 m of standard deviation.
+    pub fault_q: f64,
     /// Covariance monitor: single-linkage threshold, m.
     pub cluster_distance: f64,
     /// Covariance monitor: relative tolerance of the non-growth check.
@@ -105,7 +136,9 @@ impl Default for EkfSlamParams {
             initial_sigma: [0.0; 3],
             max_features: 500,
             fault_features: Vec::new(),
+            fault_mode: FaultMode::Inflate,
             fault_gamma: 0.9,
+            fault_q: 4e-6,
             cluster_distance: m.cluster_distance,
             monitor_rel_tol: m.rel_tol,
             frames_s: Vec::new(),
@@ -126,6 +159,7 @@ impl EkfSlamParams {
         nonneg("q_trans", self.q_trans)?;
         nonneg("q_rot", self.q_rot)?;
         nonneg("q_rot_per_m", self.q_rot_per_m)?;
+        nonneg("fault_q", self.fault_q)?;
         // Zero observation noise is allowed: the filter must cope with the singular
         // innovation covariance it can produce (it reports and skips such updates).
         if let Some(s) = self.sigma_range {
@@ -629,14 +663,60 @@ impl EkfSlam {
                 self.p[(j, i)] = val;
             }
         }
+        self.uncorrect_faulty_blocks();
         self.inject_fault();
         true
     }
 
-    /// The deliberate covariance-update bug: cross-covariances of the faulty features with
-    /// everything else shrink by `fault_gamma` after each update.
+    /// First half of the `inflate` bug: the faulty features' own 2 × 2 blocks keep their prior
+    /// value, i.e. the reduction W S Wᵀ the Joseph loop just subtracted there is added back
+    /// (from the scratch rows B, W, C, still those of this update). The result is the correct
+    /// posterior plus a positive semi-definite term on those blocks, so P stays valid.
+    fn uncorrect_faulty_blocks(&mut self) {
+        if self.params.fault_mode != FaultMode::Inflate {
+            return;
+        }
+        for k in 0..self.fault.len() {
+            if !self.fault[k] {
+                continue;
+            }
+            let (a, b) = (3 + 2 * k, 4 + 2 * k);
+            for (i, j) in [(a, a), (a, b), (b, b)] {
+                let (wi, ci, bj, wj) = (self.w[i], self.cbuf[i], self.b[j], self.w[j]);
+                let reduction = (wi[0] * bj[0] + wi[1] * bj[1]) + (ci[0] * wj[0] + ci[1] * wj[1])
+                    - (wi[0] * self.r[0] * wj[0] + wi[1] * self.r[1] * wj[1]);
+                self.p[(i, j)] += reduction;
+                if i != j {
+                    self.p[(j, i)] = self.p[(i, j)];
+                }
+            }
+        }
+    }
+
+    /// Second half of the `inflate` bug, once per update (detection batch): each faulty
+    /// feature's own block gains `fault_q` · I. Adding a positive semi-definite term keeps P a
+    /// valid covariance, and a Kalman update with any valid P can only shrink P, so no pair
+    /// without a faulty feature can grow: the fault stays confined to the pairs it touches.
+    fn inflate_faulty(&mut self) {
+        if self.params.fault_mode != FaultMode::Inflate || self.params.fault_q == 0.0 {
+            return;
+        }
+        for k in 0..self.fault.len() {
+            if self.fault[k] {
+                let (a, b) = (3 + 2 * k, 4 + 2 * k);
+                self.p[(a, a)] += self.params.fault_q;
+                self.p[(b, b)] += self.params.fault_q;
+            }
+        }
+    }
+
+    /// The `decorrelate` bug: cross-covariances of the faulty features with everything else
+    /// shrink by `fault_gamma` after each update.
     fn inject_fault(&mut self) {
-        if self.params.fault_features.is_empty() || self.params.fault_gamma == 1.0 {
+        if self.params.fault_mode != FaultMode::Decorrelate
+            || self.params.fault_features.is_empty()
+            || self.params.fault_gamma == 1.0
+        {
             return;
         }
         let g = self.params.fault_gamma;
@@ -820,6 +900,7 @@ impl EkfSlam {
         if !changed {
             return;
         }
+        self.inflate_faulty();
         self.updates += 1;
         self.features_buf.clear();
         for k in 0..self.feature_count() {
@@ -1025,6 +1106,15 @@ mod tests {
         fault: Vec<usize>,
         seed: u64,
     ) -> (EkfSlam, Vec<[f64; 2]>, Vec<f64>) {
+        synthetic_run_with(steps, fault, FaultMode::Inflate, seed)
+    }
+
+    fn synthetic_run_with(
+        steps: usize,
+        fault: Vec<usize>,
+        mode: FaultMode,
+        seed: u64,
+    ) -> (EkfSlam, Vec<[f64; 2]>, Vec<f64>) {
         let landmarks: Vec<[f64; 2]> = (0..12)
             .map(|k| {
                 let a = k as f64 * std::f64::consts::TAU / 12.0;
@@ -1037,6 +1127,7 @@ mod tests {
         let start = Pose2::new(2.0, 0.0, std::f64::consts::FRAC_PI_2);
         let p = EkfSlamParams {
             fault_features: fault,
+            fault_mode: mode,
             fault_gamma: 0.9,
             ..params()
         };
@@ -1118,7 +1209,13 @@ mod tests {
 
     #[test]
     fn fault_injection_is_flagged_on_the_faulty_features_only() {
-        let (s, _, _) = synthetic_run(3000, vec![2, 5], 4);
+        for mode in [FaultMode::Inflate, FaultMode::Decorrelate] {
+            fault_is_flagged_on_the_faulty_features_only(mode);
+        }
+    }
+
+    fn fault_is_flagged_on_the_faulty_features_only(mode: FaultMode) {
+        let (s, _, _) = synthetic_run_with(3000, vec![2, 5], mode, 4);
         let r = s.monitor().report();
         assert!(r.total_violations > 0);
         assert!(
@@ -1134,6 +1231,89 @@ mod tests {
         assert_eq!(implicated, vec![2, 5], "{}", r.describe());
         // Still a valid covariance: the fault is invisible without the monitor.
         assert!(s.covariance().clone().cholesky().is_some());
+    }
+
+    /// [003] §4's symptom at run scale: with `inflate` the faulty features' relative
+    /// covariances end above where they were early on and above the correct filter's, each by
+    /// most of the variance injected meanwhile, while pairs without a faulty feature end near
+    /// the correct filter's. With
+    /// `decorrelate` they end *below* the correct filter's (the overconfidence it causes).
+    #[test]
+    fn inflate_makes_faulty_pairs_grow_over_the_run() {
+        let value = |s: &EkfSlam, i: usize, j: usize| s.monitor().last_value(i, j).unwrap();
+        let (ok, _, _) = synthetic_run(3000, vec![], 4);
+        let (early, _, _) = synthetic_run(500, vec![2, 5], 4);
+        let (bad, _, _) = synthetic_run(3000, vec![2, 5], 4);
+        let (dec, _, _) = synthetic_run_with(3000, vec![2, 5], FaultMode::Decorrelate, 4);
+        // Between the two runs' ends the faulty blocks gained q · Δn on their diagonal; most
+        // of that must show in P_d (the partner's shrinking variance offsets a little).
+        let q = bad.params().fault_q;
+        let added = q * (bad.updates() - early.updates()) as f64;
+        for (i, j) in [(0, 2), (2, 7), (5, 9), (2, 5)] {
+            let (e, b, o) = (value(&early, i, j), value(&bad, i, j), value(&ok, i, j));
+            assert!(
+                b - e > 0.5 * added,
+                "pair ({i}, {j}): {e} after 500 steps, {b} after 3000 ({added} added)"
+            );
+            let total = q * bad.updates() as f64;
+            assert!(
+                b - o > 0.5 * total,
+                "pair ({i}, {j}): {b} faulty vs {o} correct ({total} injected)"
+            );
+            assert!(value(&dec, i, j) < o, "pair ({i}, {j}) under decorrelate");
+        }
+        for (i, j) in [(0, 1), (3, 7), (8, 11)] {
+            let r = value(&bad, i, j) / value(&ok, i, j);
+            assert!(
+                (0.5..2.0).contains(&r),
+                "healthy pair ({i}, {j}): ratio {r}"
+            );
+        }
+    }
+
+    /// The `inflate` bug by hand: a faulty feature re-observed from a known pose keeps its
+    /// covariance block except for `fault_q` · I per update, exactly; a healthy one shrinks.
+    /// q is larger than any one update's reduction of the healthy feature's variance (at most
+    /// half its initial ~4e-4 m²), so their P_d grows at every update.
+    #[test]
+    fn inflate_leaves_the_own_block_uncorrected_plus_noise() {
+        let q = 1e-3;
+        let mut s = EkfSlam::new(
+            "s",
+            EkfSlamParams {
+                fault_features: vec![1],
+                fault_q: q,
+                ..params()
+            },
+            Pose2::default(),
+        )
+        .unwrap();
+        let m = Pose2::default();
+        let z = [([2.0, 0.3], Some(0)), ([2.5, -0.4], Some(1))];
+        s.update_detections(&detections(0.1, m, &z));
+        // Feature 1 was added in that batch and inflated once after it.
+        let block = |s: &EkfSlam, k: usize| {
+            let a = 3 + 2 * k;
+            [s.p[(a, a)], s.p[(a, a + 1)], s.p[(a + 1, a + 1)]]
+        };
+        let (b1, b0) = (block(&s, 1), block(&s, 0));
+        for n in 1..=5 {
+            s.update_detections(&detections(0.1 + n as f64, m, &z));
+            let now = block(&s, 1);
+            let want = [b1[0] + n as f64 * q, b1[1], b1[2] + n as f64 * q];
+            for c in 0..3 {
+                assert!(
+                    (now[c] - want[c]).abs() < 1e-15,
+                    "update {n}: {now:?} vs {want:?}"
+                );
+            }
+        }
+        assert!(block(&s, 0)[0] < 0.5 * b0[0] && block(&s, 0)[2] < 0.5 * b0[2]);
+        // Still a covariance (positive semi-definite: the pose, known and still, has none).
+        let eig = s.covariance().clone().symmetric_eigen();
+        assert!(eig.eigenvalues.min() > -1e-15, "{}", eig.eigenvalues);
+        // And the monitor flags pair (0, 1) at each of those updates.
+        assert_eq!(s.monitor().report().total_violations, 5);
     }
 
     #[test]

@@ -12,6 +12,9 @@
 //! wrongly_implicated_max = 0    # implicated features that were not fault-injected
 //! min_increases_max = 0         # times a cluster pair's minimum grew (fixed membership)
 //! mean_ratio_max = 0.5          # final / first mean inter-cluster value, worst cluster pair
+//! mean_growth_min = 2           # last / first picture frame's mean inter-cluster value,
+//!                               # largest over cluster pairs (faulty runs: [003] §4, Fig. 8)
+//! max_growth_min = 2            # the same for the maximum
 //! features_min = 15             # features mapped
 //! features_max = 15
 //! feature_error_max = 0.05      # largest distance of a mapped feature to its pillar, m
@@ -71,6 +74,12 @@ pub struct SlamRun {
     pub monitor: MonitorReport,
     pub min_intercluster_increases: usize,
     pub mean_intercluster_ratio: Option<f64>,
+    /// The min / mean / max pictures' growth ([003] §4, Fig. 5 vs 8): per cluster pair with the
+    /// same membership in the first and the last picture frame (`frames_s`, then the final
+    /// state), last-frame value / first-frame value, largest over those cluster pairs. Below
+    /// 1 the ellipses shrank (correct filter); None with a single frame.
+    pub frame_mean_growth: Option<f64>,
+    pub frame_max_growth: Option<f64>,
     pub issues: SlamIssues,
     pub cluster_distance: f64,
     #[serde(skip)]
@@ -118,6 +127,9 @@ impl SlamRun {
                 }
             })
             .collect();
+        let history = slam.monitor().history();
+        let snapshots = slam.snapshots();
+        let (frame_mean_growth, frame_max_growth) = frame_growth(history, &snapshots);
         Some(SlamRun {
             updates: slam.updates(),
             features,
@@ -125,10 +137,12 @@ impl SlamRun {
             monitor: slam.monitor().report(),
             min_intercluster_increases: slam.monitor().min_intercluster_increases(),
             mean_intercluster_ratio: slam.monitor().mean_intercluster_ratio(),
+            frame_mean_growth,
+            frame_max_growth,
             issues: slam.issues().clone(),
             cluster_distance: slam.monitor().params().cluster_distance,
-            history: slam.monitor().history().to_vec(),
-            snapshots: slam.snapshots(),
+            history: history.to_vec(),
+            snapshots,
         })
     }
 
@@ -168,6 +182,46 @@ impl SlamRun {
     }
 }
 
+/// The monitor's step a picture frame shows: the last check at or before the snapshot (a
+/// snapshot is taken right after a check; the final one may come later, after predictions).
+fn step_of<'a>(history: &'a [MonitorStep], snap: &SlamSnapshot) -> Option<&'a MonitorStep> {
+    history.iter().rev().find(|h| h.stamp <= snap.stamp)
+}
+
+/// [`SlamRun::frame_mean_growth`] and [`SlamRun::frame_max_growth`] from the monitor history
+/// and the snapshots. A cluster pair whose membership changed between the frames is skipped:
+/// a new feature brings pairs with a fresh, large value, which is not growth.
+pub fn frame_growth(
+    history: &[MonitorStep],
+    snapshots: &[SlamSnapshot],
+) -> (Option<f64>, Option<f64>) {
+    let (Some(first), Some(last)) = (snapshots.first(), snapshots.last()) else {
+        return (None, None);
+    };
+    if snapshots.len() < 2 {
+        return (None, None);
+    }
+    let (Some(a), Some(b)) = (step_of(history, first), step_of(history, last)) else {
+        return (None, None);
+    };
+    let largest = |v: Option<f64>, r: f64| Some(v.map_or(r, |w: f64| w.max(r)));
+    let (mut mean, mut max) = (None, None);
+    for e in &b.cluster_pairs {
+        let Some(s) = a
+            .cluster_pairs
+            .iter()
+            .find(|s| s.a == e.a && s.b == e.b && s.pairs == e.pairs)
+        else {
+            continue;
+        };
+        if s.mean > 0.0 && s.max > 0.0 {
+            mean = largest(mean, e.mean / s.mean);
+            max = largest(max, e.max / s.max);
+        }
+    }
+    (mean, max)
+}
+
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
@@ -185,7 +239,7 @@ pub fn nees_chi2_fraction(samples: &[Sample]) -> Option<f64> {
     Some(inside as f64 / v.len() as f64)
 }
 
-const KEYS: [(&str, Bound); 13] = [
+const KEYS: [(&str, Bound); 15] = [
     ("wrongly_implicated_max", Bound::Max),
     ("violations_max", Bound::Max),
     ("flagged_within_s", Bound::Max),
@@ -193,6 +247,8 @@ const KEYS: [(&str, Bound); 13] = [
     ("faulty_missed_max", Bound::Max),
     ("min_increases_max", Bound::Max),
     ("mean_ratio_max", Bound::Max),
+    ("mean_growth_min", Bound::Min),
+    ("max_growth_min", Bound::Min),
     ("features_min", Bound::Min),
     ("features_max", Bound::Max),
     ("feature_error_max", Bound::Max),
@@ -248,6 +304,8 @@ fn value(key: &str, run: &SlamRun, samples: &[Sample]) -> Option<f64> {
         "wrongly_implicated_max" => run.wrongly_implicated() as f64,
         "min_increases_max" => run.min_intercluster_increases as f64,
         "mean_ratio_max" => run.mean_intercluster_ratio?,
+        "mean_growth_min" => run.frame_mean_growth?,
+        "max_growth_min" => run.frame_max_growth?,
         "features_min" | "features_max" => run.features.len() as f64,
         "feature_error_max" => run.feature_error_max()?,
         "issues_max" => run.issues.total() as f64,
@@ -337,6 +395,11 @@ pub fn to_text(name: &str, run: &SlamRun) -> String {
         run.monitor.measure,
         run.monitor.describe().replace('\n', "\n  ")
     ));
+    if let (Some(m), Some(x)) = (run.frame_mean_growth, run.frame_max_growth) {
+        s.push_str(&format!(
+            "  min / mean / max pictures, last / first frame (largest over cluster pairs): mean x{m:.2}, max x{x:.2}\n"
+        ));
+    }
     if let Some(last) = run.history.last() {
         for c in &last.cluster_pairs {
             s.push_str(&format!(
@@ -363,6 +426,63 @@ mod tests {
         assert!(
             (lo - 0.9591).abs() < 0.005 && (hi - 3.417).abs() < 0.01,
             "{lo} {hi}"
+        );
+    }
+
+    #[test]
+    fn frame_growth_compares_the_first_and_last_frames() {
+        use atrium_localization::covariance_monitor::ClusterPairStats;
+        let pair = |a, b, pairs, mean: f64, max: f64| ClusterPairStats {
+            a,
+            b,
+            pairs,
+            min: 0.5 * mean,
+            mean,
+            max,
+            min_pair: (0, 0),
+            max_pair: (0, 0),
+        };
+        let step = |stamp: f64, cluster_pairs| MonitorStep {
+            step: 0,
+            stamp,
+            features: 6,
+            clusters: 3,
+            violations: 0,
+            cluster_pairs,
+        };
+        let snap = |stamp| SlamSnapshot {
+            stamp,
+            state: vec![0.0; 3],
+            covariance: vec![0.0; 9],
+            ids: Vec::new(),
+        };
+        let history = [
+            step(1.0, vec![pair(0, 2, 4, 9.0, 9.0)]),
+            step(2.0, vec![pair(0, 2, 4, 2.0, 4.0), pair(0, 4, 4, 1.0, 1.0)]),
+            step(3.0, vec![pair(0, 2, 4, 1.0, 2.0), pair(0, 4, 4, 3.0, 2.0)]),
+            // The last frame (4.5 s) shows this check; (2, 4) is new, (0, 4) gained a pair.
+            step(
+                4.0,
+                vec![
+                    pair(0, 2, 4, 1.0, 6.0),
+                    pair(0, 4, 6, 9.0, 9.0),
+                    pair(2, 4, 4, 9.0, 9.0),
+                ],
+            ),
+        ];
+        // First frame at 2 s: (0, 2) mean 2 -> 1 (x0.5), max 4 -> 6 (x1.5).
+        let (mean, max) = frame_growth(&history, &[snap(2.0), snap(4.5)]);
+        assert_eq!((mean, max), (Some(0.5), Some(1.5)));
+        // With the first frame at 3 s (0, 4) still changed membership: only (0, 2) counts.
+        assert_eq!(
+            frame_growth(&history, &[snap(3.0), snap(4.5)]),
+            (Some(1.0), Some(3.0))
+        );
+        // One frame, or a frame before any check: nothing to compare.
+        assert_eq!(frame_growth(&history, &[snap(4.5)]), (None, None));
+        assert_eq!(
+            frame_growth(&history, &[snap(0.5), snap(4.5)]),
+            (None, None)
         );
     }
 
