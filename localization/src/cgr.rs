@@ -27,6 +27,7 @@
 //!   least `accept_sigma_xy` / `accept_sigma_theta` (slip the odometry model cannot see). A
 //!   refinement that pulls a sample somewhere the motion cannot explain is refused.
 
+use crate::cluster::{point_estimate, ClusterScratch, PointEstimate};
 use crate::error::LocalizationError;
 use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
@@ -35,7 +36,7 @@ use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particles::{
     accumulate_odometry, carried_by_odometry, redraw_gaussian, resample_columns,
-    weighted_mean_covariance, weights_from_log_likelihoods,
+    weights_from_log_likelihoods,
 };
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
@@ -92,6 +93,10 @@ pub struct CgrParams {
     /// Depth only: a point may correspond to a map segment whose normal is within this angle
     /// of its plane's normal, degrees. Default 30.
     pub normal_tolerance_deg: f64,
+    /// The reported estimate: `"heaviest_cluster"` (default, as ROS amcl: the weighted mean of
+    /// the cluster of 0.5 m × 10° bins with the most weight) or `"weighted_mean"` of the whole
+    /// set, which lands between the modes of a split cloud ([004] §3's open-area errors).
+    pub estimate: PointEstimate,
 }
 
 impl Default for CgrParams {
@@ -112,6 +117,7 @@ impl Default for CgrParams {
             fspf: FspfParams::default(),
             max_normal_z: 0.2,
             normal_tolerance_deg: 30.0,
+            estimate: PointEstimate::default(),
         }
     }
 }
@@ -217,6 +223,7 @@ pub struct Cgr {
     stamp: f64,
     mean: Pose2,
     covariance: Matrix3<f64>,
+    cluster: ClusterScratch,
     /// Refined samples accepted / offered, over the whole run.
     accepted: u64,
     offered: u64,
@@ -317,6 +324,7 @@ impl Cgr {
             stamp: 0.0,
             mean: start,
             covariance: Matrix3::zeros(),
+            cluster: ClusterScratch::with_capacity(m),
             accepted: 0,
             offered: 0,
             fit: FitTracker::default(),
@@ -595,11 +603,17 @@ impl Cgr {
         );
     }
 
-    /// Weighted mean (circular for θ) and covariance of the current set.
+    /// The estimate `params.estimate` asks for, and its covariance.
     fn compute_estimate(&mut self) {
         let n = self.n;
-        let (mean, covariance) =
-            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
+        let (mean, covariance, _) = point_estimate(
+            self.params.estimate,
+            &self.x[..n],
+            &self.y[..n],
+            &self.th[..n],
+            &self.w[..n],
+            &mut self.cluster,
+        );
         self.mean = mean;
         self.covariance = covariance;
     }

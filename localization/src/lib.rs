@@ -5,6 +5,7 @@ pub mod appearance_apf;
 pub mod ceiling_mcl;
 pub mod cgr;
 pub mod chooser;
+pub mod cluster;
 pub mod covariance_monitor;
 pub mod dead_reckoning;
 pub mod ekf_slam;

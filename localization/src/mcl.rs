@@ -2,6 +2,7 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
+use crate::cluster::{point_estimate, ClusterScratch, PointEstimate};
 use crate::error::LocalizationError;
 use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
@@ -10,7 +11,7 @@ use crate::limits::{
 };
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
+use crate::particles::{accumulate_odometry, carried_by_odometry};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
@@ -72,6 +73,10 @@ pub struct MclParams {
     pub update_min_d: f64,
     /// Skip the sensor update until the robot has turned this much (rad). Default 0.
     pub update_min_a: f64,
+    /// The reported estimate: `"heaviest_cluster"` (default, as ROS amcl: the weighted mean of
+    /// the cluster of 0.5 m × 10° bins with the most weight) or `"weighted_mean"` of the whole
+    /// set, which lands between the modes of a split cloud ([004] §3's open-area errors).
+    pub estimate: PointEstimate,
 }
 
 impl Default for MclParams {
@@ -93,6 +98,7 @@ impl Default for MclParams {
             alpha_fast: 0.0,
             update_min_d: 0.0,
             update_min_a: 0.0,
+            estimate: PointEstimate::default(),
         }
     }
 }
@@ -231,6 +237,7 @@ pub struct Mcl {
     beam_x: Vec<f64>,
     beam_y: Vec<f64>,
     bins: BinSet,
+    cluster: ClusterScratch,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
@@ -382,6 +389,7 @@ impl Mcl {
             beam_x: Vec::with_capacity(params.max_beams),
             beam_y: Vec::with_capacity(params.max_beams),
             bins: BinSet::new(m, params.kld_bin),
+            cluster: ClusterScratch::with_capacity(m),
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
@@ -711,11 +719,17 @@ impl Mcl {
         }
     }
 
-    /// Weighted mean (circular for θ) and weighted covariance of the current set.
+    /// The estimate `params.estimate` asks for, and its covariance.
     fn compute_estimate(&mut self) {
         let n = self.n;
-        let (mean, covariance) =
-            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
+        let (mean, covariance, _) = point_estimate(
+            self.params.estimate,
+            &self.x[..n],
+            &self.y[..n],
+            &self.th[..n],
+            &self.w[..n],
+            &mut self.cluster,
+        );
         self.mean = mean;
         self.covariance = covariance;
     }

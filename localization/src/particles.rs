@@ -14,19 +14,42 @@ pub fn weighted_mean_covariance(
     th: &[f64],
     w: &[f64],
 ) -> (Pose2, Matrix3<f64>) {
-    let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
+    weighted_mean_covariance_of(x, y, th, w, |_| true)
+}
+
+/// [`weighted_mean_covariance`] of the particles `keep` selects, their weights renormalised
+/// (the estimate of one cluster). An empty selection gives the origin with zero covariance.
+pub fn weighted_mean_covariance_of(
+    x: &[f64],
+    y: &[f64],
+    th: &[f64],
+    w: &[f64],
+    keep: impl Fn(usize) -> bool,
+) -> (Pose2, Matrix3<f64>) {
+    let (mut sw, mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for (i, &wi) in w.iter().enumerate() {
+        if !keep(i) {
+            continue;
+        }
+        sw += wi;
         mx += wi * x[i];
         my += wi * y[i];
         let (s, c) = th[i].sin_cos();
         ms += wi * s;
         mc += wi * c;
     }
+    if sw.is_nan() || sw <= 0.0 {
+        return (Pose2::default(), Matrix3::zeros());
+    }
+    let (mx, my) = (mx / sw, my / sw);
     let mt = ms.atan2(mc);
     let mut cov = Matrix3::zeros();
     for (i, &wi) in w.iter().enumerate() {
+        if !keep(i) {
+            continue;
+        }
         let d = Vector3::new(x[i] - mx, y[i] - my, normalize_angle(th[i] - mt));
-        cov += wi * d * d.transpose();
+        cov += (wi / sw) * d * d.transpose();
     }
     (Pose2::new(mx, my, mt), cov)
 }
