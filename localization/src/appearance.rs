@@ -76,6 +76,24 @@ impl AppearanceMap {
         self.poses[i]
     }
 
+    /// The same features at other poses (one per training point, finite). Used to build the
+    /// random-pose baseline: a map of the same size whose answers carry no information about
+    /// where the robot is, against which every appearance claim must be checked.
+    pub fn with_poses(&self, poses: Vec<Pose2>) -> Result<Self, LocalizationError> {
+        if poses.len() != self.poses.len() || poses.iter().any(|p| !p.is_finite()) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "appearance map: need {} finite poses, got {}",
+                self.poses.len(),
+                poses.len()
+            )));
+        }
+        Ok(Self {
+            poses,
+            features: self.features.clone(),
+            d: self.d,
+        })
+    }
+
     /// The J training points nearest to `y` in feature space, nearest first, with weights
     /// λ_j ∝ exp(−(δ_j² − δ_1²) / (2 δ_1²)) (δ the feature distances): the nearest neighbour
     /// weighs most, and neighbours much farther than it hardly count. Written into `out`
@@ -241,6 +259,25 @@ mod tests {
         assert!(at3 > 100.0 * at7);
         assert!(m.sensor_model(&[1.0], 3, &mut out).is_err());
         assert!(m.sensor_model(&[f64::NAN, 0.0], 3, &mut out).is_err());
+    }
+
+    #[test]
+    fn with_poses_moves_the_answers_not_the_matches() {
+        let m = map();
+        let moved: Vec<Pose2> = (0..10).map(|i| Pose2::new(0.0, i as f64, 0.0)).collect();
+        let r = m.with_poses(moved).unwrap();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        m.sensor_model(&[3.2, 0.0], 3, &mut a).unwrap();
+        r.sensor_model(&[3.2, 0.0], 3, &mut b).unwrap();
+        assert_eq!(
+            a.iter().map(|c| c.index).collect::<Vec<_>>(),
+            b.iter().map(|c| c.index).collect::<Vec<_>>()
+        );
+        assert_eq!(b[0].pose, Pose2::new(0.0, 3.0, 0.0));
+        assert!(m.with_poses(vec![Pose2::default(); 9]).is_err());
+        let mut bad = vec![Pose2::default(); 10];
+        bad[4].x = f64::NAN;
+        assert!(m.with_poses(bad).is_err());
     }
 
     #[test]
