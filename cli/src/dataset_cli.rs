@@ -1,7 +1,7 @@
 //! The `record` and `replay` subcommands of `atrium` (the binary parses the arguments and
 //! calls these). Errors are bad input (exit 2); `Ok(false)` means expectations not met.
 
-use atrium_experiments::dataset::{record, replay, ReplayOptions};
+use atrium_experiments::dataset::{self, record, replay, ReplayOptions};
 use atrium_scenarios::runner::RunOptions;
 use atrium_scenarios::{output, report, LocalizerRegistry, Scenario};
 use std::io::IsTerminal;
@@ -19,14 +19,16 @@ fn progress_bar(show: bool, name: &str) -> Option<indicatif::ProgressBar> {
     })
 }
 
-/// `atrium record SCENARIO -o FILE.mcap [--seed N] [--json]`: runs the scenario live, writes
-/// the recording, prints the run's report (the same as `atrium run`). The output is checked
-/// before the run (`dataset::record::check_output`); the file is written as
-/// `FILE.mcap.partial` until complete.
+/// `atrium record SCENARIO -o FILE.mcap [--profile foxglove|ros2] [--seed N] [--json]`: runs
+/// the scenario live, writes the recording, prints the run's report (the same as
+/// `atrium run`). The output is checked before the run (`dataset::record::check_output`, or
+/// `dataset::ros2::record::check_output` for a bag folder); it is written as
+/// `FILE.mcap.partial` (`DIR.partial/`) until complete.
 pub fn record_command(
     registry: &LocalizerRegistry,
     scenario_path: &Path,
     output: &Path,
+    ros2: bool,
     seed: Option<u64>,
     json: bool,
 ) -> anyhow::Result<bool> {
@@ -42,16 +44,16 @@ pub fn record_command(
             b.set_position((1000.0 * t / total).min(1000.0) as u64);
         }
     };
-    let rec = record(
-        registry,
-        &scenario,
-        output,
-        RunOptions {
-            seed,
-            progress: Some(&mut progress),
-            observer: None,
-        },
-    )?;
+    let options = RunOptions {
+        seed,
+        progress: Some(&mut progress),
+        observer: None,
+    };
+    let rec = if ros2 {
+        dataset::ros2::record_ros2(registry, &scenario, output, options)?
+    } else {
+        record(registry, &scenario, output, options)?
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -96,7 +98,7 @@ pub fn parse_localizer(s: &str) -> Result<(String, String), String> {
     Ok((name.to_string(), kind.to_string()))
 }
 
-/// `atrium replay FILE.mcap [--scenario S] [--localizer NAME=KIND]... [--json] [--out DIR]`.
+/// `atrium replay FILE.mcap|BAG_DIR [--scenario S] [--localizer NAME=KIND]... [--json] [--out DIR]`.
 pub fn replay_command(
     registry: &LocalizerRegistry,
     file: &Path,

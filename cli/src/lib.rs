@@ -93,11 +93,16 @@ enum Command {
     /// Make a world from a generator file: `atrium generate world GENERATOR.toml
     /// [--set KEY=VALUE ...] -o WORLD.toml`.
     Generate(generate_cli::GenerateArgs),
-    /// Run a scenario and record every sensor stream, ground truth and estimate to MCAP.
+    /// Run a scenario and record every sensor stream, ground truth and estimate to MCAP
+    /// (`--profile foxglove`, a file) or to a ROS 2 bag (`--profile ros2`, a folder).
     Record {
         scenario: PathBuf,
         #[arg(short = 'o', long = "output")]
         output: PathBuf,
+        /// `foxglove`: one MCAP file with Foxglove schemas; `ros2`: a rosbag2 folder
+        /// (metadata.yaml + MCAP with CDR messages) that `ros2 bag play` reads.
+        #[arg(long, value_parser = ["foxglove", "ros2"], default_value = "foxglove")]
+        profile: String,
         /// Replace the scenario's seed.
         #[arg(long)]
         seed: Option<u64>,
@@ -486,10 +491,16 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
         Some(Command::Record {
             scenario,
             output,
+            profile,
             seed,
             json,
         }) => Ok(dataset_cli::record_command(
-            registry, &scenario, &output, seed, json,
+            registry,
+            &scenario,
+            &output,
+            profile == "ros2",
+            seed,
+            json,
         )?),
         Some(Command::Replay {
             file,

@@ -34,6 +34,7 @@ pub mod container;
 pub mod images;
 pub mod record;
 pub mod replay;
+pub mod ros2;
 pub mod scene;
 
 pub use record::{record, Recorded, Recorder};

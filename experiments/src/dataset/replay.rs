@@ -168,6 +168,8 @@ pub struct Recording {
     pub metadata: BTreeMap<String, String>,
     /// The `atrium.summary` metadata record, when the file has one.
     pub summary: BTreeMap<String, String>,
+    /// The storage file of a ROS 2 bag (CDR messages, `super::ros2`).
+    pub(crate) ros2: bool,
 }
 
 /// What has been seen of one channel at its latest log time: duplicates are messages of the
@@ -190,6 +192,10 @@ impl Recording {
         };
         // A device or a pipe named as a recording would be read forever (`/dev/zero`).
         let meta = std::fs::metadata(path).map_err(io)?;
+        if meta.is_dir() {
+            // A ROS 2 bag folder (metadata.yaml and its MCAP file).
+            return super::ros2::read::open(path);
+        }
         if !meta.is_file() {
             let what = if meta.is_dir() {
                 "is a folder"
@@ -203,7 +209,18 @@ impl Recording {
     }
 
     pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<Recording, ScenarioError> {
+        Self::from_bytes_profile(bytes, path, false)
+    }
+
+    /// [`Recording::from_bytes`] of a Foxglove-profile file, or (`ros2`) of a ROS 2 bag's
+    /// storage file, whose channels are checked by `ros2::read::check_channel`.
+    pub(crate) fn from_bytes_profile(
+        bytes: Vec<u8>,
+        path: &Path,
+        ros2: bool,
+    ) -> Result<Recording, ScenarioError> {
         let mut rec = Recording {
+            ros2,
             path: path.to_path_buf(),
             bytes: Vec::new(),
             schemas: HashMap::new(),
@@ -364,7 +381,10 @@ impl Recording {
                         )
                     })?,
                 };
-                if let Some((name, encoding)) = expected_schema(&c.topic) {
+                if self.ros2 {
+                    super::ros2::read::check_channel(&c.topic, &schema, &c.message_encoding)
+                        .map_err(|m| bad(&self.path, format!("topic {}", c.topic), m))?;
+                } else if let Some((name, encoding)) = expected_schema(&c.topic) {
                     if schema != name || c.message_encoding != encoding {
                         return Err(bad(
                             &self.path,
@@ -597,6 +617,8 @@ struct ReplayStream<'a> {
     last_gt: Option<Pose2>,
     distance: f64,
     decode_s: f64,
+    /// The decoder of a ROS 2 bag's messages.
+    ros2: Option<super::ros2::read::Decoder>,
 }
 
 impl<'a> ReplayStream<'a> {
@@ -609,6 +631,10 @@ impl<'a> ReplayStream<'a> {
             physics_hz: rec.meta_f64("physics_hz"),
             use_wheels: has(topics::ODOM_WHEELS),
             use_score: has(topics::SCORE),
+            ros2: rec.ros2.then(|| {
+                let names: Vec<String> = rec.channels.values().map(|c| c.topic.clone()).collect();
+                super::ros2::read::Decoder::new(base_link.clone(), &names)
+            }),
             base_link,
             frames: HashMap::new(),
             last_t: 0.0,
@@ -668,6 +694,21 @@ impl<'a> ReplayStream<'a> {
                 format!("message at {stamp} s cannot be decoded: {e}"),
             )
         };
+        if let Some(dec) = self.ros2.as_mut() {
+            return dec
+                .handle(
+                    topic,
+                    &ch.schema,
+                    &ch.metadata,
+                    header.log_time,
+                    stamp,
+                    data,
+                    readings,
+                    score,
+                    events,
+                )
+                .map_err(|e| fail(&e));
+        }
         match topic {
             topics::ODOM_WHEELS if self.use_wheels => {
                 let o: WheelOdometry = serde_json::from_slice(data).map_err(|e| fail(&e))?;

@@ -61,10 +61,16 @@ fn bad(path: &Path, at: impl Into<String>, msg: impl Into<String>) -> ScenarioEr
 }
 
 impl Estimates {
-    /// Reads `path`: MCAP when it starts with the MCAP magic bytes, else CSV for a `.csv`
+    /// Reads `path`: a ROS 2 bag folder's MCAP file, MCAP when it starts with the MCAP magic
+    /// bytes, else CSV for a `.csv`
     /// file or a first data line holding commas, else TUM. `topic` picks the MCAP topic
     /// (default: the only pose topic that is not `/ground_truth` or `/odom`).
     pub fn read(path: &Path, topic: Option<&str>) -> Result<Estimates, ScenarioError> {
+        if crate::dataset::ros2::read::is_bag(path) {
+            // A ROS 2 bag folder: its MCAP storage file (checked against metadata.yaml).
+            let file = crate::dataset::ros2::read::storage_file(path)?;
+            return Self::read(&file, topic);
+        }
         let bytes = std::fs::read(path).map_err(|err| ScenarioError::Io {
             file: path.to_path_buf(),
             err,
