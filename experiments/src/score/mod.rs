@@ -178,7 +178,7 @@ fn valid_name(name: &str) -> bool {
 }
 
 /// Keeps the expectations of `name` that foreign estimates can meet: `slam` needs a map,
-/// `compare` another localizer of the run. Returns a warning per expectation dropped.
+/// `compare` and `baselines` another localizer of the run. Returns a warning per expectation dropped.
 fn keep_own_expectations(scenario: &mut Scenario, name: &str) -> Vec<String> {
     let mut warnings = Vec::new();
     scenario.expect.retain(|k, _| k == name);
@@ -186,6 +186,11 @@ fn keep_own_expectations(scenario: &mut Scenario, name: &str) -> Vec<String> {
         if table.remove("slam").is_some() {
             warnings.push(format!(
                 "expect.{name}.slam skipped: scored estimates carry no SLAM map"
+            ));
+        }
+        if table.remove("baselines").is_some() {
+            warnings.push(format!(
+                "expect.{name}.baselines skipped: a score runs no baseline localizer"
             ));
         }
         if let Some(list) = table.get_mut("compare").and_then(|v| v.as_array_mut()) {
@@ -490,7 +495,7 @@ mod tests {
     }
 
     #[test]
-    fn expectations_of_other_localizers_slam_and_compare_are_dropped() {
+    fn expectations_of_other_localizers_slam_compare_and_baselines_are_dropped() {
         let path = atrium_scenarios::bundled_scenarios_dir().join("corridor_tracking.toml");
         let mut s = Scenario::load(&path).unwrap();
         s.expect = toml::from_str(
@@ -498,8 +503,17 @@ mod tests {
              other = \"odometry\"\nmax_ratio = 0.5\n[mcl.slam]\n[odometry]\nmedian_max = 9.0\n",
         )
         .unwrap();
+        let mcl = s
+            .expect
+            .get_mut("mcl")
+            .and_then(|v| v.as_table_mut())
+            .unwrap();
+        mcl.insert(
+            "baselines".into(),
+            vec![toml::Value::from("odometry")].into(),
+        );
         let w = keep_own_expectations(&mut s, "mcl");
-        assert_eq!(w.len(), 2, "{w:?}");
+        assert_eq!(w.len(), 3, "{w:?}");
         assert_eq!(s.expect.len(), 1);
         let t = s.expect["mcl"].as_table().unwrap();
         assert_eq!(t.keys().collect::<Vec<_>>(), vec!["median_max"]);
