@@ -55,6 +55,42 @@ pub fn world(path: &Path) -> Result<World, WorldError> {
     })
 }
 
+/// The world of generator file `path` with `params` set ([`GeneratorFile::set`]) before
+/// generating: a scenario's `[world_params]`, which is how a sweep's `world.<parameter>` axis
+/// reaches the generator without writing a file. Memoised by path, content and parameters,
+/// so the cells of a sweep that make the same world generate it once, and cells that make
+/// different worlds never share one.
+///
+/// A file that is not a generator file is refused under the field `generator` (only a
+/// generated world has parameters); a parameter the kind does not take, or a value that
+/// cannot make a world, under the parameter's name (the generator's own messages).
+pub fn world_with_params(path: &Path, params: &toml::Table) -> Result<World, WorldError> {
+    static MEMO: OnceLock<Memo<World>> = OnceLock::new();
+    let text = std::fs::read_to_string(path).map_err(|err| WorldError::Io {
+        file: path.to_path_buf(),
+        err,
+    })?;
+    if !atrium_worlds::generate::is_generator_text(&text) {
+        return Err(WorldError::Field {
+            file: path.to_path_buf(),
+            field: "generator".into(),
+            msg: "is not a generator file (no top-level `generator` key): only a generated \
+                  world has parameters to set"
+                .into(),
+        });
+    }
+    // The parameters are part of the key: TOML text of a table, after the file's text and a
+    // separator no TOML file holds (a raw NUL is not allowed in TOML).
+    let key = format!("{text}\n\u{0}\n{params}");
+    lookup_or_parse(&MEMO, path, key, |_| {
+        let mut generator = atrium_worlds::GeneratorFile::parse(&text, path)?;
+        for (k, v) in params {
+            generator.set(k, v.clone())?;
+        }
+        generator.generate(&GeneratorRegistry::with_builtins())
+    })
+}
+
 /// [`RobotModel::from_urdf`], memoised by path and content.
 pub fn robot(path: &Path) -> Result<RobotModel, RobotError> {
     static MEMO: OnceLock<Memo<RobotModel>> = OnceLock::new();

@@ -16,6 +16,10 @@ struct ScenarioFile {
     #[serde(default)]
     description: String,
     world: PathBuf,
+    /// `[world_params]`: parameters set on the world's generator file before it generates
+    /// (see [`load_world`]).
+    #[serde(default)]
+    world_params: toml::Table,
     robot: PathBuf,
     #[serde(default)]
     seed: u64,
@@ -212,6 +216,9 @@ pub struct Scenario {
     pub world_file: PathBuf,
     pub robot_file: PathBuf,
     pub world: World,
+    /// `[world_params]`: the generator parameters this scenario set on its world file (empty
+    /// for a world as written). A sweep's `world.<parameter>` axis lands here.
+    pub world_params: toml::Table,
     pub robot: RobotModel,
     pub seed: u64,
     pub duration_s: f64,
@@ -504,6 +511,42 @@ fn heading(file: &Path, field: &str, theta: f64) -> Result<f64, ScenarioError> {
     Ok(atrium_robots::normalize_angle(theta))
 }
 
+/// The scenario's world: `world_file` as written, or, with `[world_params]`, the world its
+/// generator makes with those parameters set (a world that is not a generator file has none
+/// to set, and is refused). Errors of a parameter name the scenario's `world_params.<key>`,
+/// since that is where the value was written.
+fn load_world(
+    file: &Path,
+    world_file: &Path,
+    params: &toml::Table,
+) -> Result<World, ScenarioError> {
+    if params.is_empty() {
+        return Ok(crate::load_cache::world(world_file)?);
+    }
+    crate::load_cache::world_with_params(world_file, params).map_err(|e| match e {
+        atrium_worlds::WorldError::Field {
+            file: wf,
+            field,
+            msg,
+        } if wf == world_file && (field == "generator" || params.contains_key(&field)) => {
+            let (key, msg) = match params.contains_key(&field) {
+                // The generator's messages say "(from --set)" of a value set in code.
+                true => (
+                    format!("world_params.{field}"),
+                    msg.trim_end_matches(" (from --set)").to_string(),
+                ),
+                false => ("world_params".to_string(), msg),
+            };
+            ScenarioError::field(
+                file,
+                key,
+                format!("{msg} (world file {})", world_file.display()),
+            )
+        }
+        other => other.into(),
+    })
+}
+
 impl Scenario {
     /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
     /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
@@ -566,7 +609,7 @@ impl Scenario {
         let robot_file = dir.join(&raw.robot);
         // `world` names an explicit world file or a generator file (`generator = ...`), whose
         // world is generated and then validated by the same loader.
-        let mut world = crate::load_cache::world(&world_file)?;
+        let mut world = load_world(file, &world_file, &raw.world_params)?;
         add_clutter(file, &mut world, &raw.clutter)?;
         let robot = crate::load_cache::robot(&robot_file)?;
 
@@ -1029,6 +1072,7 @@ impl Scenario {
             world_file,
             robot_file,
             world,
+            world_params: raw.world_params,
             robot,
             seed: raw.seed,
             duration_s: raw.duration_s,

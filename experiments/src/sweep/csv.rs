@@ -30,6 +30,35 @@ pub fn fixed_columns() -> &'static [&'static str] {
     &FIXED_COLUMNS
 }
 
+/// The column a sweep writes between `passed` and `wall_s`: the fraction of the trial's
+/// scored instants with position error above the sweep's `[failure] error_threshold_m`
+/// (see `super::failure`). Files written before it existed lack it and are still read; a
+/// file has it when its column header does, and then every row has it.
+pub const FAILURE_COLUMN: &str = "failed_time_frac";
+
+/// The fixed columns of a file with ([`FAILURE_COLUMN`] before `wall_s`) or without it.
+pub fn columns(with_failure: bool) -> Vec<&'static str> {
+    let (head, wall) = FIXED_COLUMNS.split_at(FIXED_COLUMNS.len() - 1);
+    let mut c = head.to_vec();
+    if with_failure {
+        c.push(FAILURE_COLUMN);
+    }
+    c.extend(wall);
+    c
+}
+
+/// Values per row (the fixed columns after cell, trial, seed and localizer) of a file
+/// without [`FAILURE_COLUMN`].
+pub const VALUES_WITHOUT_FAILURE: usize = FIXED_COLUMNS.len() - 4;
+
+/// A row's [`FAILURE_COLUMN`] value; `None` in a file without it or when never scored.
+pub fn failed_time_frac(row: &Row) -> Option<f64> {
+    match row.values.len() == VALUES_WITHOUT_FAILURE + 1 {
+        true => row.values[VALUES_WITHOUT_FAILURE - 1].parse().ok(),
+        false => None,
+    }
+}
+
 /// One row: a trial's result for one localizer. Numbers are kept as the text written, so
 /// reading and writing a file round-trips exactly.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -39,7 +68,8 @@ pub struct Row {
     pub trial: usize,
     pub seed: u64,
     pub localizer: String,
-    /// min, median, rmse, p95, max, final, converged_after_s, passed, wall_s.
+    /// min, median, rmse, p95, max, final, converged_after_s, passed, [failed_time_frac,]
+    /// wall_s.
     pub values: Vec<String>,
 }
 
@@ -66,8 +96,7 @@ impl Row {
         line
     }
 
-    fn from_fields(f: Vec<String>, n_params: usize) -> Result<Row, String> {
-        let n = fixed_columns().len();
+    fn from_fields(f: Vec<String>, n_params: usize, n: usize) -> Result<Row, String> {
         if f.len() != n_params + n {
             return Err(format!("expected {} fields, got {}", n_params + n, f.len()));
         }
@@ -93,7 +122,7 @@ impl Row {
 
 /// A field as RFC 4180 writes it: quoted when it holds a comma, quote or line break (or
 /// starts with a space, which some readers trim).
-fn quote(s: &str) -> String {
+pub(crate) fn quote(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) || s.starts_with(' ') || s.ends_with(' ') {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
@@ -205,12 +234,23 @@ impl Layout {
     }
 }
 
-/// The two header lines of a results file.
+/// The two header lines of a results file without [`FAILURE_COLUMN`].
 pub fn header(hash: &str, name: &str, layout: Option<&Layout>, axis_paths: &[String]) -> String {
+    header_with(hash, name, layout, axis_paths, false)
+}
+
+/// The two header lines of a results file, with or without [`FAILURE_COLUMN`].
+pub fn header_with(
+    hash: &str,
+    name: &str,
+    layout: Option<&Layout>,
+    axis_paths: &[String],
+    with_failure: bool,
+) -> String {
     let cols: Vec<String> = axis_paths
         .iter()
         .map(|p| quote(p))
-        .chain(fixed_columns().iter().map(|c| c.to_string()))
+        .chain(columns(with_failure).iter().map(|c| c.to_string()))
         .collect();
     // The name goes last and takes the rest of the line, so it may hold spaces.
     let size = layout.map_or(String::new(), |l| {
@@ -241,13 +281,25 @@ pub struct Results {
 }
 
 impl Results {
+    /// The header lines; with [`FAILURE_COLUMN`] when the rows have it (rows hold the
+    /// values as read or made, so the file written says what they hold). A file without
+    /// rows gets the header without it: a caller about to append rows with it writes
+    /// [`header_with`] itself.
     pub fn header(&self) -> String {
-        header(
+        header_with(
             &self.hash,
             &self.name,
             self.layout.as_ref(),
             &self.axis_paths,
+            self.has_failure_column(),
         )
+    }
+
+    /// Whether the rows hold [`FAILURE_COLUMN`].
+    pub fn has_failure_column(&self) -> bool {
+        self.rows
+            .first()
+            .is_some_and(|r| r.values.len() == VALUES_WITHOUT_FAILURE + 1)
     }
 
     pub fn to_text(&self) -> String {
@@ -313,17 +365,22 @@ pub fn parse_results(text: &str) -> Result<Results, (usize, String)> {
         .ok_or((2, "no column header".to_string()))?;
     line += lines_in(at, next);
     at = next;
-    let n_fixed = fixed_columns().len();
-    if cols.len() < n_fixed || cols[cols.len() - n_fixed..] != *fixed_columns() {
-        return Err((2, "unexpected columns".into()));
-    }
+    let ends_with =
+        |fixed: &[&str]| cols.len() >= fixed.len() && cols[cols.len() - fixed.len()..] == *fixed;
+    let n_fixed = match (ends_with(&columns(true)), ends_with(fixed_columns())) {
+        (true, _) => columns(true).len(),
+        (false, true) => fixed_columns().len(),
+        (false, false) => return Err((2, "unexpected columns".into())),
+    };
     let axis_paths = cols[..cols.len() - n_fixed].to_vec();
     let mut rows = Vec::new();
     let mut dropped_partial = false;
     while at < text.len() {
         match record(text, at).map_err(|m| (line, m))? {
             Some((fields, next)) => {
-                rows.push(Row::from_fields(fields, axis_paths.len()).map_err(|m| (line, m))?);
+                rows.push(
+                    Row::from_fields(fields, axis_paths.len(), n_fixed).map_err(|m| (line, m))?,
+                );
                 line += lines_in(at, next);
                 at = next;
             }
@@ -404,7 +461,7 @@ mod tests {
         let line = r.to_line();
         let (fields, end) = record(&line, 0).unwrap().unwrap();
         assert_eq!(end, line.len());
-        assert_eq!(Row::from_fields(fields, 2).unwrap(), r);
+        assert_eq!(Row::from_fields(fields, 2, FIXED_COLUMNS.len()).unwrap(), r);
         assert_eq!(r.median(), Some(1.0));
     }
 
@@ -470,6 +527,38 @@ mod tests {
         assert!(parse_results("# atrium-sweep name=x\n").is_err());
         assert!(parse_results("# atrium-sweep hash=1 cells=3 name=x\na\n").is_err());
         assert!(parse_results("").is_err());
+    }
+
+    #[test]
+    fn files_with_and_without_the_failure_column_round_trip() {
+        let mut with = row(vec!["1".into()], "l");
+        with.values.insert(8, "0.25".into());
+        let results = Results {
+            hash: "h".into(),
+            name: "n".into(),
+            layout: None,
+            axis_paths: vec!["a".into()],
+            rows: vec![with.clone()],
+            dropped_partial: false,
+        };
+        let text = results.to_text();
+        assert!(text.contains(",passed,failed_time_frac,wall_s\n"), "{text}");
+        let back = parse_results(&text).unwrap();
+        assert_eq!(back.rows, vec![with.clone()]);
+        assert_eq!(failed_time_frac(&back.rows[0]), Some(0.25));
+        assert_eq!(back.to_text(), text);
+        // Without it: read as before, no fraction.
+        let old = Results {
+            rows: vec![row(vec!["1".into()], "l")],
+            ..results.clone()
+        };
+        let back = parse_results(&old.to_text()).unwrap();
+        assert!(!back.has_failure_column());
+        assert_eq!(failed_time_frac(&back.rows[0]), None);
+        // A row of the other layout is refused.
+        let h = header_with("h", "n", None, &["a".into()], true);
+        let short = format!("{h}1,0,0,0,l,1,2,3,4,5,6,7,true,0.1\n");
+        assert_eq!(parse_results(&short).unwrap_err().0, 3);
     }
 
     #[test]

@@ -10,7 +10,19 @@
 //! duration_s = [60.0]
 //! [error_map]                 # optional: per-location error maps (see `super::maps`)
 //! resolution = 1.0            # cell size, m
+//! [failure]                   # optional: failure curves (see `super::failure`)
+//! error_threshold_m = 1.0
 //! ```
+//!
+//! `world.<parameter>` axes vary the base scenario's generated world: the base scenario's
+//! `world` must be a generator file (`generator = "..."`) and `<parameter>` one of its kind's
+//! parameters. A cell sets them in its scenario's `[world_params]` table, which the scenario
+//! loader applies to the generator file before generating; no file is written. Everything a
+//! localizer derives from the world (grids, likelihood fields, appearance maps) is keyed by
+//! the world's content (`atrium_scenarios::map_cache`), so it is built per cell and shared by
+//! the cell's trials. Localizers that learn from another scenario file (`training = "<file>"`:
+//! the WiFi survey, the data-driven chooser) would learn on the file's own world, not the
+//! cell's, and are refused with a world axis.
 //!
 //! An axis's path may also be written as nested tables (`[axes.odometry] radius_error = [..]`);
 //! every leaf array is one axis, and each parameter may have one axis only (two spellings of
@@ -60,6 +72,12 @@ pub struct Sweep {
     pub inputs: Vec<InputFile>,
     /// `[error_map] resolution`, m: every trial records a per-location error map.
     pub error_map: Option<f64>,
+    /// `[failure]`: what counts as failing, for the failure curves (defaults without it).
+    pub failure: super::failure::FailureSettings,
+    /// Per cell, a hash of the world its trials run in, when the base scenario's world is
+    /// generated (a generator file): part of [`Sweep::hash`], since a generated world
+    /// depends on the generator's code as well as on the files. Empty otherwise.
+    pub world_hashes: std::collections::BTreeMap<usize, String>,
     /// The sweep file's own `[[localizers]]`, added to the base scenario's in every cell.
     pub extra_localizers: Vec<toml::Table>,
     /// The sweep file's own `[expect.<localizer>]` tables.
@@ -77,6 +95,20 @@ pub struct Sweep {
     /// Per axis, its keys under `[axes]` as the file writes them (`["odometry",
     /// "radius_error"]` or `["odometry.radius_error"]`), to find its line.
     pub(crate) axis_keys: Vec<Vec<String>>,
+    /// Whether the base scenario's world is a generator file (its cells' world hashes are
+    /// recorded).
+    pub(crate) generated_world: bool,
+    /// World hashes collected while validating, by cell.
+    pub(crate) hashes: std::sync::Arc<Mutex<std::collections::BTreeMap<usize, String>>>,
+}
+
+/// The first segment of a world axis: `world.<parameter>`.
+pub const WORLD_AXIS: &str = "world";
+
+/// The parameter a `world.<parameter>` axis sets (None for other axes; the bare `world`
+/// axis, which names world files, is an ordinary one).
+pub fn world_parameter(path: &str) -> Option<&str> {
+    path.strip_prefix(WORLD_AXIS)?.strip_prefix('.')
 }
 
 /// Per-cell [`SharedMaps`] kept alive between validation and the trials.
@@ -127,6 +159,8 @@ struct SweepFile {
     axes: toml::Table,
     #[serde(default)]
     error_map: Option<ErrorMapFile>,
+    #[serde(default)]
+    failure: super::failure::FailureSettings,
     /// `[[localizers]]` added to the base scenario's (a user's own beside the bundled ones).
     #[serde(default)]
     localizers: Vec<toml::Table>,
@@ -428,8 +462,17 @@ impl Sweep {
                 ))
             }
         };
+        raw.failure.validate().map_err(|(key, msg)| {
+            let line = line_of(text, &["failure".to_string(), key.to_string()])
+                .map_or(String::new(), |l| format!(" (line {l})"));
+            ScenarioError::field(file, format!("failure.{key}"), msg + &line)
+        })?;
         let mut sweep = Sweep {
             error_map,
+            failure: raw.failure,
+            world_hashes: Default::default(),
+            generated_world: false,
+            hashes: Default::default(),
             warm: WarmMaps::default(),
             // Validation builds every cell's localizers: record the paths they resolve.
             registry: registry.recording_paths(),
@@ -448,6 +491,7 @@ impl Sweep {
             base_doc,
             axis_keys,
         };
+        sweep.generated_world = sweep.check_world_axes()?;
         let collector = sweep.validate(progress)?;
         for p in sweep.registry.recorded_paths() {
             collector.add_file(&p);
@@ -456,6 +500,15 @@ impl Sweep {
         sweep.registry = registry;
         sweep.inputs = inputs::hash_files(dir, &collector.files())?;
         sweep.hash = inputs::sweep_hash(text, &sweep.inputs);
+        sweep.world_hashes =
+            std::mem::take(&mut *sweep.hashes.lock().unwrap_or_else(|p| p.into_inner()));
+        if !sweep.world_hashes.is_empty() {
+            let mut parts: Vec<&[u8]> = vec![sweep.hash.as_bytes()];
+            for h in sweep.world_hashes.values() {
+                parts.push(h.as_bytes());
+            }
+            sweep.hash = inputs::fnv_hex(&parts);
+        }
         Ok(sweep)
     }
 
@@ -563,7 +616,13 @@ impl Sweep {
         }
         for &(a, i) in choice {
             let axis = &self.axes[a];
-            set_path(&mut doc, &axis.path, &axis.values[i]).map_err(|msg| {
+            // `world.<parameter>` lands in `[world_params]` (the scenario's `world` is a
+            // path, not a table).
+            let path = match world_parameter(&axis.path) {
+                Some(p) => format!("world_params.{p}"),
+                None => axis.path.clone(),
+            };
+            set_path(&mut doc, &path, &axis.values[i]).map_err(|msg| {
                 let line = self
                     .axis_line(a)
                     .map_or(String::new(), |l| format!(" (line {l})"));
@@ -595,6 +654,17 @@ impl Sweep {
     /// cell's own text (`text`: the generated text of a parse error's position).
     fn locate(&self, e: &ScenarioError, text: Option<&str>) -> Option<Located> {
         let mut loc = self.locate_raw(e, text)?;
+        // `[world_params]` keys a world axis set are that axis's (`world.<parameter>`).
+        if loc.keys.first().map(String::as_str) == Some("world_params") {
+            let axis = loc.keys.get(1).map(|k| format!("{WORLD_AXIS}.{k}"));
+            if axis.is_some_and(|p| self.axes.iter().any(|a| a.path == p)) {
+                loc.keys[0] = WORLD_AXIS.to_string();
+                loc.field = loc
+                    .field
+                    .as_ref()
+                    .map(|f| f.replacen("world_params.", &format!("{WORLD_AXIS}."), 1));
+            }
+        }
         // An unnamed entry is written by index (`localizers[0].name`); axes and the sweep's
         // own tables name localizers, so take the name the entry had before any axis value.
         if loc.keys.first().map(String::as_str) == Some("localizers") {
@@ -817,6 +887,13 @@ impl Sweep {
                 .map_err(|e| self.explain(e, choice, cell, None))?;
         }
         collector.add_scenario(&scenario);
+        if let (Some(c), true) = (cell, self.generated_world) {
+            let json = serde_json::to_string(&scenario.world).unwrap_or_default();
+            self.hashes
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .insert(c, inputs::fnv_hex(&[json.as_bytes()]));
+        }
         if let Some(c) = cell {
             self.warm
                 .0
@@ -842,6 +919,119 @@ impl Sweep {
             self.registry.build(spec, scenario, &mut maps, 0)?;
         }
         Ok(maps)
+    }
+
+    /// Checks the `world.<parameter>` axes before any cell, so their errors name the axis and
+    /// the parameter: the base scenario's world must be a generator file, the parameter one
+    /// of its kind's, and every value must make a world (with the base scenario's own
+    /// `[world_params]`). Localizers that learn from another scenario file are refused with a
+    /// world axis: that file generates its own world, not the cell's. Returns whether the
+    /// base scenario's world is generated.
+    fn check_world_axes(&self) -> Result<bool, ScenarioError> {
+        use atrium_worlds::generate::is_generator_text;
+        use atrium_worlds::{GeneratorFile, GeneratorRegistry, WorldError};
+        let dir = self.base_file.parent().unwrap_or(Path::new("."));
+        let world_file = self
+            .base_doc
+            .get("world")
+            .and_then(|w| w.as_str())
+            .map(|w| dir.join(w));
+        let text = world_file
+            .as_ref()
+            .and_then(|f| std::fs::read_to_string(f).ok());
+        let generated = text.as_deref().is_some_and(is_generator_text);
+        let registry = GeneratorRegistry::with_builtins();
+        for (a, axis) in self.axes.iter().enumerate() {
+            let Some(param) = world_parameter(&axis.path) else {
+                continue;
+            };
+            let line = self
+                .axis_line(a)
+                .map_or(String::new(), |l| format!(", line {l}"));
+            let at_line = self
+                .axis_line(a)
+                .map_or(String::new(), |l| format!(" (line {l})"));
+            let refuse =
+                |msg: String| ScenarioError::field(&self.file, format!("axes.{}", axis.path), msg);
+            if param.contains('.') {
+                return Err(refuse(format!(
+                    "{param:?} is not a generator parameter: a generator's parameters are \
+                     flat keys, write {WORLD_AXIS}.<parameter>{at_line}"
+                )));
+            }
+            let (Some(world_file), Some(text)) = (&world_file, &text) else {
+                return Err(refuse(format!(
+                    "{param}: the base scenario {} names no readable world file{at_line}",
+                    self.base_file.display()
+                )));
+            };
+            if !generated {
+                return Err(refuse(format!(
+                    "{param}: the base scenario's world {} is not a generator file (no \
+                     top-level `generator` key), so it has no parameters to sweep{at_line}",
+                    world_file.display()
+                )));
+            }
+            let mut generator =
+                GeneratorFile::parse(text, world_file).map_err(|e| refuse(e.to_string()))?;
+            if let Some(t) = self.base_doc.get("world_params").and_then(|t| t.as_table()) {
+                for (k, v) in t {
+                    generator
+                        .set(k, v.clone())
+                        .map_err(|e| refuse(e.to_string()))?;
+                }
+            }
+            let Some(kind) = registry.get(&generator.generator) else {
+                return Err(refuse(format!(
+                    "{param}: the world {} names generator {:?}, which is not known \
+                     (known: {}){at_line}",
+                    world_file.display(),
+                    generator.generator,
+                    registry.names().join(", ")
+                )));
+            };
+            let defaults = kind.defaults();
+            if !defaults.contains_key(param) {
+                let known: Vec<&str> = defaults.keys().map(String::as_str).collect();
+                return Err(refuse(format!(
+                    "{param:?} is not a parameter of generator {:?} (its parameters: {}){at_line}",
+                    generator.generator,
+                    known.join(", ")
+                )));
+            }
+            for v in &axis.values {
+                let mut g = generator.clone();
+                let made = g.set(param, v.clone()).and_then(|_| g.generate(&registry));
+                if let Err(e) = made {
+                    let msg = match e {
+                        // The generator's message of the parameter, without its "(from
+                        // --set)": the value came from this axis.
+                        WorldError::Field { field, msg, .. } if field == param => {
+                            msg.trim_end_matches(" (from --set)").to_string()
+                        }
+                        other => other.to_string(),
+                    };
+                    return Err(refuse(format!("{param}: {msg} (value {}{line})", show(v))));
+                }
+            }
+            let base = self.base_doc.get("localizers").and_then(|l| l.as_array());
+            let tables = base
+                .into_iter()
+                .flatten()
+                .filter_map(|l| l.as_table())
+                .chain(&self.extra_localizers);
+            for l in tables {
+                if let Some(t) = l.get("training").and_then(|t| t.as_str()) {
+                    let name = l.get("name").and_then(|n| n.as_str()).unwrap_or("?");
+                    return Err(refuse(format!(
+                        "localizer {name:?} learns from another scenario (training = {t:?}), \
+                         which generates its own world, not this cell's: a WiFi survey or \
+                         chooser training does not follow a world axis yet{at_line}"
+                    )));
+                }
+            }
+        }
+        Ok(generated)
     }
 
     /// Checks each axis value alone (so an error names the axis responsible), then every

@@ -102,7 +102,7 @@ pub(crate) fn colour_bar(pm: &mut Pixmap, x: f32, y: f32, h: f32, lo: f64, hi: f
 }
 
 /// Turns a label into a file-name part.
-fn sanitize(s: &str) -> String {
+pub(crate) fn sanitize(s: &str) -> String {
     s.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '=') {
@@ -120,7 +120,7 @@ const MAX_FILE_NAME: usize = 120;
 /// File names for `names` (already sanitized), in order: each kept when it is short and its
 /// own; else cut and given a hash of the full name, and numbered if still taken, so two axis
 /// values that sanitize alike (`a/b`, `a_b`) never write one file over the other.
-fn unique_names(names: Vec<String>) -> Vec<String> {
+pub(crate) fn unique_names(names: Vec<String>) -> Vec<String> {
     let mut taken = std::collections::HashSet::new();
     let mut out = Vec::with_capacity(names.len());
     for name in names {
@@ -151,7 +151,7 @@ fn unique_names(names: Vec<String>) -> Vec<String> {
 const MAX_LABEL: usize = 24;
 
 /// `s` cut to [`MAX_LABEL`] characters.
-fn clip(s: &str) -> String {
+pub(crate) fn clip(s: &str) -> String {
     if s.chars().count() <= MAX_LABEL {
         s.to_string()
     } else {
@@ -166,7 +166,7 @@ fn clip(s: &str) -> String {
 pub const MAX_PIXELS: u64 = 40_000_000;
 
 /// Axis indices of cell `cell` (last axis fastest, as [`super::Sweep::cell_indices`]).
-fn indices(axes: &[AxisLabels], cell: usize) -> Vec<usize> {
+pub(crate) fn indices(axes: &[AxisLabels], cell: usize) -> Vec<usize> {
     let mut rem = cell;
     let mut idx = vec![0; axes.len()];
     for (i, a) in axes.iter().enumerate().rev() {

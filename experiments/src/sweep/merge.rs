@@ -290,6 +290,32 @@ pub fn merge(out: &Path, shards: &[impl AsRef<Path>]) -> Result<Results, Scenari
                 ));
             }
         }
+        if let Some(first) = read.iter().find(|s| !s.results.rows.is_empty()) {
+            let (a, b) = (
+                first.results.has_failure_column(),
+                results.has_failure_column(),
+            );
+            if !results.rows.is_empty() && a != b {
+                return Err(ScenarioError::field(
+                    &path,
+                    "columns",
+                    format!(
+                        "{} the {} column and {} {}: shards written by different atrium \
+                         versions; rerun the older ones",
+                        match b {
+                            true => "has",
+                            false => "lacks",
+                        },
+                        csv::FAILURE_COLUMN,
+                        first.dir.display(),
+                        match a {
+                            true => "has it",
+                            false => "does not",
+                        }
+                    ),
+                ));
+            }
+        }
         let layout = layout_of(dir, &results)?;
         read.push(Shard {
             dir: dir.to_path_buf(),
@@ -337,7 +363,6 @@ pub fn merge(out: &Path, shards: &[impl AsRef<Path>]) -> Result<Results, Scenari
         err,
     })?;
     csv::write_atomic(&out_csv, &merged.to_text())?;
-    csv::write_atomic(&out.join("summary.md"), &summary::to_markdown(&merged))?;
 
     // The axes' values and the cell count come from the first shard's sweep.json.
     let first = shards[0].as_ref().join("sweep.json");
@@ -352,6 +377,13 @@ pub fn merge(out: &Path, shards: &[impl AsRef<Path>]) -> Result<Results, Scenari
     })?;
     let mut doc: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| ScenarioError::field(&first, "sweep.json", e.to_string()))?;
+    // The failure curves of the whole, with the settings and seed the shards ran with.
+    let (settings, seed) = super::failure::recorded(&doc);
+    let curves = super::failure::write_outputs(out, &merged, &axes, &settings, seed)?;
+    csv::write_atomic(
+        &out.join("summary.md"),
+        &(summary::to_markdown(&merged) + &curves.markdown),
+    )?;
     doc["shard"] = serde_json::Value::Null;
     csv::write_atomic(
         &out.join("sweep.json"),

@@ -2,11 +2,14 @@
 //! names a base scenario, parameter axes and trials per cell; `atrium sweep` runs every trial
 //! in parallel with seeds derived from the trial's index (so results do not depend on the
 //! thread count or the sharding), appends one row batch per trial to `results.csv`, and
-//! writes `summary.md`. Source of the experiment design: [004] §3.
+//! writes `summary.md`. Source of the experiment design: [004] §3. Axes may vary a generated
+//! world (`world.<parameter>`, see `format`), and numeric axes get failure curves
+//! (`failure`, issue 17).
 
 pub mod bench;
 pub mod csv;
 pub mod end_error;
+pub mod failure;
 pub mod format;
 pub mod heatmap;
 pub mod inputs;

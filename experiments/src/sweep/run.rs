@@ -2,6 +2,7 @@
 //! finished trial, resumable, and sliceable into shards for batch schedulers.
 
 use super::csv::{self, Layout, Results, Row};
+use super::failure;
 use super::format::Sweep;
 use super::heatmap::{self, AxisLabels};
 use super::inputs::{self, InputFile};
@@ -180,6 +181,10 @@ fn run_trial(
                     fmt_opt(m.map(|m| m.final_position_error)),
                     fmt_opt(m.and_then(|m| m.converged_after_s)),
                     l.passed.to_string(),
+                    fmt_opt(failure::time_above(
+                        &l.samples,
+                        sweep.failure.error_threshold_m,
+                    )),
                     format!("{wall:.3}"),
                 ],
             }
@@ -243,12 +248,27 @@ pub fn check_settings(file: &Path, settings: &SweepSettings) -> Result<(), Scena
     check_out(&settings.out)
 }
 
-/// The inputs recorded in a results folder's `sweep.json` (none when it has none).
-fn recorded_inputs(out: &Path) -> Option<(String, Vec<InputFile>)> {
+/// The inputs recorded in a results folder's `sweep.json` (none when it has none), and its
+/// world hashes by cell (empty when it has none).
+fn recorded_inputs(
+    out: &Path,
+) -> Option<(
+    String,
+    Vec<InputFile>,
+    std::collections::BTreeMap<usize, String>,
+)> {
     let text = std::fs::read_to_string(out.join("sweep.json")).ok()?;
     let doc: serde_json::Value = serde_json::from_str(&text).ok()?;
     let inputs = serde_json::from_value(doc.get("inputs")?.clone()).ok()?;
-    Some((doc.get("sweep_text_hash")?.as_str()?.to_string(), inputs))
+    let worlds = doc
+        .get("world_hashes")
+        .and_then(|w| serde_json::from_value(w.clone()).ok())
+        .unwrap_or_default();
+    Some((
+        doc.get("sweep_text_hash")?.as_str()?.to_string(),
+        inputs,
+        worlds,
+    ))
 }
 
 /// Runs `sweep` into `settings.out`: `results.csv` (rows appended per finished trial, each
@@ -280,10 +300,23 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         let existing = csv::read_results(&csv_path)?;
         if existing.hash != sweep.hash {
             let why = match recorded_inputs(out) {
-                Some((text_hash, old)) => {
+                Some((text_hash, old, old_worlds)) => {
                     let mut changes = inputs::describe_changes(&old, &sweep.inputs);
                     if text_hash != sweep_text_hash {
                         changes.insert(0, format!("{} changed", sweep.file.display()));
+                    }
+                    // Same files, other worlds: the generator itself changed.
+                    let cells: Vec<String> = sweep
+                        .world_hashes
+                        .iter()
+                        .filter(|(c, h)| old_worlds.get(c).is_some_and(|o| o != *h))
+                        .map(|(c, _)| c.to_string())
+                        .collect();
+                    if !cells.is_empty() {
+                        changes.push(format!(
+                            "the generated worlds of cells {} changed",
+                            cells.join(", ")
+                        ));
                     }
                     match changes.is_empty() {
                         true => String::new(),
@@ -323,6 +356,18 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
                 ));
             }
         }
+        // Rows without the failure column (written before it existed) cannot be continued
+        // with rows that have it.
+        if !existing.rows.is_empty() && !existing.has_failure_column() {
+            return Err(ScenarioError::field(
+                &csv_path,
+                "columns",
+                format!(
+                    "written by an older atrium (no {} column): rerun this sweep into another --out",
+                    csv::FAILURE_COLUMN
+                ),
+            ));
+        }
         // Keep only whole trials; the partial line and any trial missing rows are redone.
         let mut count: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
         for r in &existing.rows {
@@ -347,12 +392,17 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
             layout: Some(layout),
             ..existing
         };
-        csv::write_atomic(&csv_path, &kept.to_text())?;
+        // Without rows, `to_text` would write the header without the failure column.
+        let text = match kept.rows.is_empty() {
+            true => csv::header_with(&kept.hash, &kept.name, Some(&layout), &axis_paths, true),
+            false => kept.to_text(),
+        };
+        csv::write_atomic(&csv_path, &text)?;
     } else {
         std::fs::create_dir_all(out).map_err(write_err(out))?;
         csv::write_atomic(
             &csv_path,
-            &csv::header(&sweep.hash, &sweep.name, Some(&layout), &axis_paths),
+            &csv::header_with(&sweep.hash, &sweep.name, Some(&layout), &axis_paths, true),
         )?;
     }
     let sweep_json = serde_json::json!({
@@ -369,6 +419,9 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
             "values": a.values.iter().map(|v| v.to_string()).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
         "shard": settings.shard.map(|(i, n)| format!("{i}/{n}")),
+        "failure": sweep.failure,
+        // Per cell, a hash of its generated world (present when the world is generated).
+        "world_hashes": sweep.world_hashes,
     });
     csv::write_atomic(
         &out.join("sweep.json"),
@@ -476,15 +529,22 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     };
     csv::write_atomic(&csv_path, &results.to_text())?;
     let summary_md = out.join("summary.md");
-    csv::write_atomic(&summary_md, &summary::to_markdown(&results))?;
-    let (pictures, notes) = write_pictures(
+    let axes = axis_labels(sweep);
+    let curves = failure::write_outputs(out, &results, &axes, &sweep.failure, sweep.seed)?;
+    csv::write_atomic(
+        &summary_md,
+        &(summary::to_markdown(&results) + &curves.markdown),
+    )?;
+    let (mut pictures, mut notes) = write_pictures(
         out,
         &results,
-        &axis_labels(sweep),
+        &axes,
         sweep
             .error_map
             .map(|_| (mine.as_slice(), sweep.cells() == 1)),
     )?;
+    pictures.extend(curves.files);
+    notes.extend(curves.notes);
     Ok(SweepOutcome {
         ran: todo.len(),
         skipped,
