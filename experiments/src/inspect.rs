@@ -1,5 +1,6 @@
 //! `atrium inspect robot|world`: what Atrium derived from a description file.
 
+use atrium_robots::model::{DriveKind, TrackSource};
 use atrium_robots::RobotInspection;
 use atrium_worlds::{LaserBehaviour, World};
 use serde_json::{json, Value};
@@ -7,6 +8,32 @@ use std::fmt::Write;
 
 fn v3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
+}
+
+/// "differential" or "skid_steer".
+fn drive_name(r: &atrium_robots::RobotModel) -> &'static str {
+    match r.drive_kind {
+        DriveKind::Differential => "differential",
+        DriveKind::SkidSteer(_) => "skid_steer",
+    }
+}
+
+/// The drive joints of each side, front to back.
+fn side_joints(r: &atrium_robots::RobotModel) -> (Vec<&str>, Vec<&str>) {
+    match &r.drive_kind {
+        DriveKind::Differential => (vec![&r.left_wheel.joint], vec![&r.right_wheel.joint]),
+        DriveKind::SkidSteer(s) => (
+            s.left.iter().map(|w| w.joint.as_str()).collect(),
+            s.right.iter().map(|w| w.joint.as_str()).collect(),
+        ),
+    }
+}
+
+fn track_source(s: &TrackSource) -> &'static str {
+    match s {
+        TrackSource::DefaultRatio => "default_ratio",
+        TrackSource::Urdf => "urdf",
+    }
 }
 
 /// `atrium inspect robot --json`: the model, and why each revolving joint that does not
@@ -17,15 +44,32 @@ pub fn robot_json(i: &RobotInspection) -> Value {
         json!({"joint": w.joint, "link": w.link, "center": v3(&w.center), "axis": v3(&w.axis),
                "radius": w.radius, "width": w.width, "mass": w.mass})
     };
+    let (left, right) = side_joints(r);
+    let skid_steer = match &r.drive_kind {
+        DriveKind::Differential => Value::Null,
+        DriveKind::SkidSteer(s) => json!({
+            "left_wheels": s.left.iter().map(wheel).collect::<Vec<_>>(),
+            "right_wheels": s.right.iter().map(wheel).collect::<Vec<_>>(),
+            "geometric_track": r.wheel_separation,
+            "effective_track": s.effective_track,
+            "effective_track_ratio": s.effective_track / r.wheel_separation,
+            "effective_track_source": track_source(&s.effective_track_source),
+        }),
+    };
     json!({
+        "drive": drive_name(r),
+        "left_drive_joints": left,
+        "right_drive_joints": right,
+        "skid_steer": skid_steer,
         "name": r.name,
         "base_link": r.base_link,
         "wheel_radius": r.wheel_radius,
         "wheel_separation": r.wheel_separation,
-        "drive_joints": [r.left_wheel.joint, r.right_wheel.joint],
+        "drive_joints": r.driven_wheels().iter().map(|w| w.joint.as_str()).collect::<Vec<_>>(),
         "left_wheel": wheel(&r.left_wheel),
         "right_wheel": wheel(&r.right_wheel),
         "casters": r.casters.iter().map(|c| json!({"link": c.link, "center": v3(&c.center), "radius": c.radius})).collect::<Vec<_>>(),
+        "caster_joints": caster_joints(i),
         "mass": r.mass(),
         "base_height": r.base_height,
         "links": r.mounts.iter().map(|m| {
@@ -37,17 +81,57 @@ pub fn robot_json(i: &RobotInspection) -> Value {
     })
 }
 
+/// The excluded joints that belong to a caster: the loader called their wheel a caster, or
+/// their link carries a caster's support sphere (a swivel fork).
+fn caster_joints(i: &RobotInspection) -> Vec<&str> {
+    i.excluded_joints
+        .iter()
+        .filter(|e| e.reason.contains("caster") || i.model.casters.iter().any(|c| c.link == e.link))
+        .map(|e| e.joint.as_str())
+        .collect()
+}
+
 pub fn robot_text(i: &RobotInspection) -> String {
     let r = &i.model;
     let mut s = String::new();
     let _ = writeln!(s, "robot {} (base link {})", r.name, r.base_link);
+    let (left, right) = side_joints(r);
+    match &r.drive_kind {
+        DriveKind::Differential => {
+            let _ = writeln!(s, "drive             differential");
+        }
+        DriveKind::SkidSteer(k) => {
+            let _ = writeln!(
+                s,
+                "drive             skid steer, {} wheels per side driven together",
+                k.left.len()
+            );
+        }
+    }
     let _ = writeln!(s, "wheel_radius      {:.4} m", r.wheel_radius);
     let _ = writeln!(s, "wheel_separation  {:.4} m", r.wheel_separation);
+    if let DriveKind::SkidSteer(k) = &r.drive_kind {
+        let _ = writeln!(
+            s,
+            "effective track   {:.4} m ({:.3} x the geometric track; {})",
+            k.effective_track,
+            k.effective_track / r.wheel_separation,
+            match k.effective_track_source {
+                TrackSource::DefaultRatio => "the default ratio",
+                TrackSource::Urdf => "from the URDF's <skid_steer>",
+            }
+        );
+    }
     let _ = writeln!(
         s,
-        "drive joints      left {}, right {}",
-        r.left_wheel.joint, r.right_wheel.joint
+        "drive joints      left {}; right {}",
+        left.join(", "),
+        right.join(", ")
     );
+    let casters = caster_joints(i);
+    if !casters.is_empty() {
+        let _ = writeln!(s, "caster joints     {}", casters.join(", "));
+    }
     let _ = writeln!(s, "mass              {:.2} kg", r.mass());
     for c in &r.casters {
         let _ = writeln!(

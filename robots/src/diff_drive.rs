@@ -1,6 +1,26 @@
-//! Differential-drive kinematics.
+//! Differential-drive kinematics, which a skid steer shares with an effective track.
+//!
+//! A skid-steer robot (two or three wheels per side, a side's wheels driven together) turns
+//! only by sliding its wheels sideways. Its motion is still described well by the
+//! differential-drive equations if the geometric track `B` is replaced by a larger
+//! effective track `χ·B`: the instantaneous centres of rotation of the two sides lie
+//! outside the wheels. Mandow et al. measured this "expansion factor" χ on a skid-steer
+//! robot (A. Mandow, J. L. Martínez, J. Morales, J. L. Blanco, A. García-Cerezo and
+//! J. González, "Experimental kinematics for wheeled skid-steer mobile robots", IEEE/RSJ
+//! IROS 2007, pp. 1222–1227), and it depends on the floor, the load and the turn. Clearpath
+//! ships its ROS drive controllers with `wheel_separation_multiplier: 1.875` for the Husky
+//! and `1.5` for the Jackal (husky/husky `husky_control/config/control.yaml`,
+//! jackal/jackal `jackal_control/config/control.yaml`).
 
 use crate::pose::{normalize_angle, Pose2};
+
+/// The effective track of a skid steer as a multiple of its geometric track when its URDF
+/// does not state one: 1.5, Clearpath's Jackal value and the low end of the range above, the
+/// value a robot whose drive was not calibrated on its floor plausibly carries. A URDF
+/// overrides it with `<skid_steer effective_track_ratio="1.875"/>` (or
+/// `effective_track="1.07"`, in metres) directly under `<robot>`; a scenario scales what
+/// the odometry believes with `[odometry] separation_error`.
+pub const DEFAULT_EFFECTIVE_TRACK_RATIO: f64 = 1.5;
 
 /// Wheel radius and separation (track width) of a differential drive, in metres.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -92,7 +92,45 @@ pub struct RobotInspection {
     pub excluded_joints: Vec<ExcludedJoint>,
 }
 
-/// A differential-drive robot derived from a URDF.
+/// How the driven wheels move the robot.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum DriveKind {
+    /// One driven wheel per side ([`RobotModel::left_wheel`], [`RobotModel::right_wheel`]);
+    /// passive casters carry the rest of the weight.
+    #[default]
+    Differential,
+    /// Two or three driven wheels per side, every wheel of a side given the same speed
+    /// (Clearpath Husky and Jackal style). Turning needs the wheels to slide sideways.
+    SkidSteer(SkidSteer),
+}
+
+/// Where a skid steer's [`SkidSteer::effective_track`] came from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TrackSource {
+    /// [`crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO`] × the geometric track.
+    DefaultRatio,
+    /// The URDF's `<skid_steer effective_track=".."/>` or `effective_track_ratio=".."`.
+    Urdf,
+}
+
+/// The wheels and the turning geometry of a skid-steer drive.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkidSteer {
+    /// Driven wheels on the left (y > 0), front to back; the first is
+    /// [`RobotModel::left_wheel`].
+    pub left: Vec<Wheel>,
+    /// Driven wheels on the right (y < 0), front to back; the first is
+    /// [`RobotModel::right_wheel`].
+    pub right: Vec<Wheel>,
+    /// The track (m) the robot's drive software turns with: wheel speeds from a body
+    /// velocity, and odometry from the wheel encoders, use this instead of the geometric
+    /// [`RobotModel::wheel_separation`], because the sliding wheels make a skid steer turn
+    /// as if its wheels were farther apart (see [`crate::diff_drive`]).
+    pub effective_track: f64,
+    pub effective_track_source: TrackSource,
+}
+
+/// A wheeled robot derived from a URDF: a differential drive or a skid steer.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobotModel {
     pub name: String,
@@ -105,20 +143,25 @@ pub struct RobotModel {
     /// Centre of mass of everything except the drive wheels, in the base frame, from the
     /// URDF's inertial origins.
     pub chassis_com: Vector3<f64>,
+    /// The driven wheel on the left (for a skid steer, the front one of its left side).
     pub left_wheel: Wheel,
+    /// The driven wheel on the right (for a skid steer, the front one of its right side).
     pub right_wheel: Wheel,
     pub casters: Vec<Caster>,
     /// Every link, including the base (identity) and the wheels.
     pub mounts: Vec<LinkMount>,
-    /// Mean of the two drive wheels' radii, m.
+    /// Mean of the drive wheels' radii, m.
     pub wheel_radius: f64,
-    /// Distance between the two drive wheels' contact points, m.
+    /// Distance between the two drive wheels' contact points (for a skid steer, between
+    /// the mean lateral positions of its two sides: the geometric track), m.
     pub wheel_separation: f64,
     /// Height of the base frame's origin above the floor when the wheels touch it, m.
     pub base_height: f64,
     /// Human-readable notes about what the loader could not use or had to assume (mesh-only
     /// links, defaulted wheel masses, joints held at zero, ...). Empty for a clean URDF.
     pub warnings: Vec<String>,
+    /// Differential drive or skid steer (then with every driven wheel).
+    pub drive_kind: DriveKind,
 }
 
 impl RobotModel {
@@ -151,10 +194,23 @@ impl RobotModel {
         })
     }
 
+    /// The drive's kinematics as the robot's software uses them: the wheel separation of a
+    /// differential drive, the effective track of a skid steer.
     pub fn drive(&self) -> DiffDrive {
         DiffDrive {
             wheel_radius: self.wheel_radius,
-            wheel_separation: self.wheel_separation,
+            wheel_separation: match &self.drive_kind {
+                DriveKind::Differential => self.wheel_separation,
+                DriveKind::SkidSteer(s) => s.effective_track,
+            },
+        }
+    }
+
+    /// Every driven wheel, left side first (front to back), then the right side.
+    pub fn driven_wheels(&self) -> Vec<&Wheel> {
+        match &self.drive_kind {
+            DriveKind::Differential => vec![&self.left_wheel, &self.right_wheel],
+            DriveKind::SkidSteer(s) => s.left.iter().chain(&s.right).collect(),
         }
     }
 
@@ -164,6 +220,6 @@ impl RobotModel {
 
     /// Total mass, kg.
     pub fn mass(&self) -> f64 {
-        self.chassis_mass + self.left_wheel.mass + self.right_wheel.mass
+        self.chassis_mass + self.driven_wheels().iter().map(|w| w.mass).sum::<f64>()
     }
 }

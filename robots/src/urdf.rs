@@ -9,8 +9,12 @@
 //! separation, XML depth, ...), and every refusal names the file, the link or joint, the field
 //! and the limit. Loading is linear in the size of the file.
 
+use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
 use crate::error::RobotError;
-use crate::model::{Caster, ExcludedJoint, LinkMount, RobotModel, Shape, ShapeInstance, Wheel};
+use crate::model::{
+    Caster, DriveKind, ExcludedJoint, LinkMount, RobotModel, Shape, ShapeInstance, SkidSteer,
+    TrackSource, Wheel,
+};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -24,6 +28,18 @@ const VERTICAL: f64 = 0.9;
 const DEFAULT_WHEEL_MASS_FRACTION: f64 = 0.02;
 /// A caster whose lowest point is farther than this from the floor gets a warning.
 const CASTER_GAP_WARN: f64 = 0.005;
+/// A lateral-axis wheel closer to the centre line than this fraction of the widest wheel's
+/// |y| is a caster wheel on a continuous joint: it cannot steer by a speed difference.
+const CENTRE_LINE_FRACTION: f64 = 0.25;
+/// A skid steer has 2 or 3 driven wheels per side (Husky, Jackal, Pioneer 3-AT: 2; six-wheel
+/// rovers: 3). More is a tracked vehicle, which Atrium does not model.
+const MAX_WHEELS_PER_SIDE: usize = 3;
+/// The driven wheels of one skid-steer side must share a radius within this fraction: the
+/// side turns at one speed, so a 1 % larger wheel would have to slip 1 % all the time.
+const SIDE_RADIUS_TOLERANCE: f64 = 0.005;
+/// Largest `effective_track_ratio` a `<skid_steer>` element may state (Clearpath's Husky
+/// uses 1.875; beyond 4 the robot would hardly turn at all).
+const MAX_EFFECTIVE_TRACK_RATIO: f64 = 4.0;
 
 // ---- Limits on what a URDF may state. Each refusal names the file, the link or joint, the
 // ---- field and the limit. They are far outside any real indoor robot, so they only catch
@@ -230,6 +246,55 @@ fn field_err(source: &str, field: impl Into<String>, msg: impl Into<String>) -> 
 struct XmlFacts {
     /// Movable joints with no `<axis>` element (urdf-rs reports 1 0 0 for them).
     joints_without_axis: HashSet<String>,
+    /// Atrium's `<skid_steer effective_track=".."/>` or `effective_track_ratio=".."`.
+    skid_steer: Option<EffectiveTrack>,
+}
+
+/// A skid steer's effective track as the URDF states it.
+#[derive(Clone, Copy)]
+enum EffectiveTrack {
+    Metres(f64),
+    Ratio(f64),
+}
+
+/// Reads Atrium's `<skid_steer>` element (a direct child of `<robot>`, ignored by other URDF
+/// tools): exactly one of `effective_track` (m) or `effective_track_ratio` (× the geometric
+/// track).
+fn skid_steer_element(node: roxmltree::Node, source: &str) -> Result<EffectiveTrack, RobotError> {
+    match (
+        node.attribute("effective_track"),
+        node.attribute("effective_track_ratio"),
+    ) {
+        (Some(_), None) => {
+            let field = "skid_steer.effective_track";
+            Ok(EffectiveTrack::Metres(length_attr(
+                node,
+                "effective_track",
+                field,
+                source,
+            )?))
+        }
+        (None, Some(_)) => {
+            let field = "skid_steer.effective_track_ratio";
+            let k = numbers_attr(node, "effective_track_ratio", 1, field, source)?[0];
+            if !(k > 0.0 && k <= MAX_EFFECTIVE_TRACK_RATIO) {
+                return Err(field_err(
+                    source,
+                    field,
+                    format!(
+                        "must be > 0 and at most {MAX_EFFECTIVE_TRACK_RATIO}                          (MAX_EFFECTIVE_TRACK_RATIO), got {}",
+                        num(k)
+                    ),
+                ));
+            }
+            Ok(EffectiveTrack::Ratio(k))
+        }
+        _ => Err(field_err(
+            source,
+            "skid_steer",
+            "give exactly one of effective_track (m) or effective_track_ratio",
+        )),
+    }
 }
 
 /// Rejects xacro sources. A bare `xmlns:xacro` declaration is not enough: real plain URDFs
@@ -586,7 +651,9 @@ fn check_joint(joint: roxmltree::Node, name: &str, source: &str) -> Result<bool,
         Some(axis) => {
             let field = format!("{prefix}.axis.xyz");
             let xyz = numbers_attr(axis, "xyz", 3, &field, source)?;
-            if xyz.iter().all(|&v| v == 0.0) {
+            // The URDF specification: fixed and floating joints do not use the axis, so an
+            // all-zero one (exporters write it) is ignored there.
+            if xyz.iter().all(|&v| v == 0.0) && !matches!(kind, "fixed" | "floating") {
                 return Err(field_err(source, field, "must not be the zero vector"));
             }
             Ok(true)
@@ -613,6 +680,13 @@ fn check_xml(doc: &roxmltree::Document, source: &str) -> Result<XmlFacts, RobotE
     let mut joints = HashSet::new();
     for node in root.children().filter(|c| c.is_element()) {
         let kind = node.tag_name().name();
+        if kind == "skid_steer" {
+            if facts.skid_steer.is_some() {
+                return Err(invalid(source, "<skid_steer> is given twice"));
+            }
+            facts.skid_steer = Some(skid_steer_element(node, source)?);
+            continue;
+        }
         if kind != "link" && kind != "joint" {
             continue;
         }
@@ -1054,6 +1128,32 @@ fn build(
             p.pose.translation.vector.y
         )
     };
+    // A lateral wheel on the centre line cannot steer by speed difference: it is a caster
+    // wheel on a continuous joint (a quirk of published URDFs that do not name it "caster").
+    let widest = wheels
+        .iter()
+        .map(|(_, (_, _, p, _))| p.pose.translation.vector.y.abs())
+        .fold(0.0f64, f64::max);
+    let mut centre_casters = HashSet::new();
+    wheels.retain(|(i, (_, _, p, _))| {
+        let y = p.pose.translation.vector.y;
+        if y.abs() >= CENTRE_LINE_FRACTION * widest {
+            return true;
+        }
+        centre_casters.insert(*i);
+        let j = nodes[*i].joint.expect("non-root nodes have a joint");
+        excluded.push(ExcludedJoint {
+            joint: j.name.clone(),
+            link: nodes[*i].link.name.clone(),
+            reason: format!(
+                "it sits on the centre line (y = {y:.3} m, within {:.0} % of the widest wheel's \
+                 {widest:.3} m): a caster wheel on a {} joint, not a drive wheel",
+                100.0 * CENTRE_LINE_FRACTION,
+                joint_kind(j)
+            ),
+        });
+        false
+    });
     let listed: Vec<String> = wheels.iter().map(describe).collect();
     if wheels.len() < 2 {
         let mut msg = format!(
@@ -1070,97 +1170,183 @@ fn build(
         }
         return Err(invalid(source, msg));
     }
-    if wheels.len() > 2 {
+    // ---- sides: left y > 0, right y < 0, each front to back
+    let (mut left_c, mut right_c): (Vec<Candidate>, Vec<Candidate>) = wheels
+        .iter()
+        .copied()
+        .partition(|(_, (_, _, p, _))| p.pose.translation.vector.y > 0.0);
+    for side in [&mut left_c, &mut right_c] {
+        side.sort_by(|a, b| {
+            let x = |c: &Candidate| c.1 .2.pose.translation.vector.x;
+            x(b).total_cmp(&x(a))
+        });
+    }
+    let side_list = |side: &[Candidate]| side.iter().map(describe).collect::<Vec<_>>().join(", ");
+    if left_c.is_empty() || right_c.is_empty() {
         return Err(invalid(
             source,
             format!(
-                "found {} lateral wheel joints: {}; Atrium supports exactly two drive wheels \
-                 (differential drive), not skid steer",
-                wheels.len(),
-                listed.join(", ")
-            ),
-        ));
-    }
-    let mut made = Vec::with_capacity(2);
-    for &(i, (radius, width, p, k)) in &wheels {
-        let node = &nodes[i];
-        let field = &geometry[i].fields[k];
-        let joint = node.joint.map(|j| j.name.as_str()).unwrap_or_default();
-        if let Shape::Cylinder { .. } = p.shape {
-            let cyl_axis = p.pose.rotation * Vector3::z();
-            if cyl_axis.dot(&node.axis).abs() <= LATERAL {
-                return Err(field_err(
-                    source,
-                    field.clone(),
-                    format!(
-                        "the wheel cylinder's axis ({:.3}, {:.3}, {:.3} in the base frame) is \
-                             not along its joint's axis ({:.3}, {:.3}, {:.3})",
-                        cyl_axis.x, cyl_axis.y, cyl_axis.z, node.axis.x, node.axis.y, node.axis.z
-                    ),
-                ));
-            }
-        }
-        if radius > MAX_WHEEL_RADIUS_M {
-            return Err(field_err(
-                source,
-                format!("{field}.radius"),
-                format!(
-                    "the drive wheel of joint {joint:?} has radius {} m, above the limit \
-                     of {MAX_WHEEL_RADIUS_M} m (MAX_WHEEL_RADIUS_M: a wheel taller than a 2 m \
-                     door cannot drive through an indoor world)",
-                    num(radius)
-                ),
-            ));
-        }
-        if radius < MIN_WHEEL_RADIUS_M {
-            return Err(field_err(
-                source,
-                format!("{field}.radius"),
-                format!(
-                    "the drive wheel of joint {joint:?} has radius {} m, below the limit \
-                     of {MIN_WHEEL_RADIUS_M} m (MIN_WHEEL_RADIUS_M)",
-                    num(radius)
-                ),
-            ));
-        }
-        made.push((
-            Wheel {
-                joint: joint.to_string(),
-                link: node.link.name.clone(),
-                center: p.pose.translation.vector,
-                axis: node.axis,
-                radius,
-                width,
-                mass: node.link.inertial.mass.value,
-            },
-            field.clone(),
-        ));
-    }
-    let ((mut left_wheel, left_field), (mut right_wheel, right_field)) = {
-        let b = made.pop().expect("two wheels");
-        let a = made.pop().expect("two wheels");
-        if a.0.center.y >= b.0.center.y {
-            (a, b)
-        } else {
-            (b, a)
-        }
-    };
-    if left_wheel.center.y <= 0.0 || right_wheel.center.y >= 0.0 {
-        return Err(invalid(
-            source,
-            format!(
-                "the two drive wheels must be one left (y > 0) and one right (y < 0) of the base \
-                 link {:?}; found {}",
+                "the drive wheels must be one left (y > 0) and one right (y < 0) of the base \
+                 link {:?} (or, for a skid steer, two or three on each side); found {}",
                 nodes[0].link.name,
                 listed.join(", ")
             ),
         ));
     }
-    // ---- wheel separation and wheel size relative to it
-    let wheel_separation = (left_wheel.center.y - right_wheel.center.y).abs();
+    if left_c.len() != right_c.len() {
+        return Err(invalid(
+            source,
+            format!(
+                "cannot determine the drive: {} driven wheel{} on the left ({}) but {} on the \
+                 right ({}); a differential drive has one wheel per side and a skid steer the \
+                 same number (two or three) on each side",
+                left_c.len(),
+                if left_c.len() == 1 { "" } else { "s" },
+                side_list(&left_c),
+                right_c.len(),
+                side_list(&right_c)
+            ),
+        ));
+    }
+    if left_c.len() > MAX_WHEELS_PER_SIDE {
+        return Err(invalid(
+            source,
+            format!(
+                "found {} lateral wheel joints: {}; Atrium supports a differential drive (one \
+                 wheel per side) or a skid steer of 2 to {MAX_WHEELS_PER_SIDE} wheels per side",
+                wheels.len(),
+                listed.join(", ")
+            ),
+        ));
+    }
+    for (name, side) in [("left", &left_c), ("right", &right_c)] {
+        let radii = || side.iter().map(|c| c.1 .0);
+        let (lo, hi) = (
+            radii().fold(f64::MAX, f64::min),
+            radii().fold(0.0, f64::max),
+        );
+        if hi - lo > SIDE_RADIUS_TOLERANCE * hi {
+            let each: Vec<String> = side
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{} r = {} m",
+                        nodes[c.0]
+                            .joint
+                            .map(|j| j.name.as_str())
+                            .unwrap_or_default(),
+                        num(c.1 .0)
+                    )
+                })
+                .collect();
+            return Err(invalid(
+                source,
+                format!(
+                    "cannot determine the drive: the {name} side's driven wheels have different \
+                     radii ({}); a skid steer turns a side's wheels at one speed, so they must \
+                     share a radius (within {} %)",
+                    each.join(", "),
+                    100.0 * SIDE_RADIUS_TOLERANCE
+                ),
+            ));
+        }
+        for pair in side.windows(2) {
+            let (a, b) = (&pair[0].1, &pair[1].1);
+            let dx = a.2.pose.translation.vector.x - b.2.pose.translation.vector.x;
+            if dx < a.0 + b.0 {
+                let joint =
+                    |c: &Candidate| nodes[c.0].joint.map(|j| j.name.clone()).unwrap_or_default();
+                return Err(invalid(
+                    source,
+                    format!(
+                        "the {name} side's wheels of joints {:?} and {:?} overlap: their centres \
+                         are {dx:.3} m apart along x but their radii add up to {:.3} m",
+                        joint(&pair[0]),
+                        joint(&pair[1]),
+                        a.0 + b.0
+                    ),
+                ));
+            }
+        }
+    }
+    let mut make =
+        |&(i, (radius, width, p, k)): &Candidate| -> Result<(Wheel, String), RobotError> {
+            let node = &nodes[i];
+            let field = &geometry[i].fields[k];
+            let joint = node.joint.map(|j| j.name.as_str()).unwrap_or_default();
+            if let Shape::Cylinder { .. } = p.shape {
+                let cyl_axis = p.pose.rotation * Vector3::z();
+                if cyl_axis.dot(&node.axis).abs() <= LATERAL {
+                    return Err(field_err(
+                        source,
+                        field.clone(),
+                        format!(
+                            "the wheel cylinder's axis ({:.3}, {:.3}, {:.3} in the base frame) is \
+                             not along its joint's axis ({:.3}, {:.3}, {:.3})",
+                            cyl_axis.x,
+                            cyl_axis.y,
+                            cyl_axis.z,
+                            node.axis.x,
+                            node.axis.y,
+                            node.axis.z
+                        ),
+                    ));
+                }
+            }
+            if radius > MAX_WHEEL_RADIUS_M {
+                return Err(field_err(
+                    source,
+                    format!("{field}.radius"),
+                    format!(
+                        "the drive wheel of joint {joint:?} has radius {} m, above the limit \
+                     of {MAX_WHEEL_RADIUS_M} m (MAX_WHEEL_RADIUS_M: a wheel taller than a 2 m \
+                     door cannot drive through an indoor world)",
+                        num(radius)
+                    ),
+                ));
+            }
+            if radius < MIN_WHEEL_RADIUS_M {
+                return Err(field_err(
+                    source,
+                    format!("{field}.radius"),
+                    format!(
+                        "the drive wheel of joint {joint:?} has radius {} m, below the limit \
+                     of {MIN_WHEEL_RADIUS_M} m (MIN_WHEEL_RADIUS_M)",
+                        num(radius)
+                    ),
+                ));
+            }
+            Ok((
+                Wheel {
+                    joint: joint.to_string(),
+                    link: node.link.name.clone(),
+                    center: p.pose.translation.vector,
+                    axis: node.axis,
+                    radius,
+                    width,
+                    mass: node.link.inertial.mass.value,
+                },
+                field.clone(),
+            ))
+        };
+    let mut left_made = left_c
+        .iter()
+        .map(&mut make)
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut right_made = right_c
+        .iter()
+        .map(&mut make)
+        .collect::<Result<Vec<_>, _>>()?;
+    let skid = left_made.len() > 1;
+    // ---- wheel separation (the geometric track of a skid steer: between the sides' mean
+    // ---- lateral positions) and wheel size relative to it
+    let mean_y = |side: &[(Wheel, String)]| {
+        side.iter().map(|(w, _)| w.center.y).sum::<f64>() / side.len() as f64
+    };
+    let wheel_separation = (mean_y(&left_made) - mean_y(&right_made)).abs();
     let origins = format!(
         "joint[{}].origin.xyz, joint[{}].origin.xyz",
-        left_wheel.joint, right_wheel.joint
+        left_made[0].0.joint, right_made[0].0.joint
     );
     if wheel_separation.is_nan() || wheel_separation < MIN_WHEEL_SEPARATION_M {
         return Err(field_err(
@@ -1173,7 +1359,7 @@ fn build(
             ),
         ));
     }
-    let mean_width = 0.5 * (left_wheel.width + right_wheel.width);
+    let mean_width = 0.5 * (left_made[0].0.width + right_made[0].0.width);
     if wheel_separation <= mean_width {
         return Err(field_err(
             source,
@@ -1184,7 +1370,7 @@ fn build(
             ),
         ));
     }
-    for (w, field) in [(&left_wheel, &left_field), (&right_wheel, &right_field)] {
+    for (w, field) in left_made.iter().chain(&right_made) {
         if w.radius > MAX_WHEEL_RADIUS_PER_SEPARATION * wheel_separation {
             return Err(field_err(
                 source,
@@ -1200,7 +1386,11 @@ fn build(
             ));
         }
     }
-    let wheel_links = [left_wheel.link.clone(), right_wheel.link.clone()];
+    let wheel_links: Vec<String> = left_made
+        .iter()
+        .chain(&right_made)
+        .map(|(w, _)| w.link.clone())
+        .collect();
 
     // ---- mass
     let chassis_mass: f64 = nodes
@@ -1250,7 +1440,7 @@ fn build(
         })
         .fold(Vector3::zeros(), |a, b| a + b)
         / chassis_mass;
-    for w in [&mut left_wheel, &mut right_wheel] {
+    for (w, _) in left_made.iter_mut().chain(right_made.iter_mut()) {
         if w.mass > 0.0 && w.mass < MIN_MASS_KG {
             return Err(field_err(
                 source,
@@ -1272,19 +1462,64 @@ fn build(
             ));
         }
     }
+    let left_wheels: Vec<Wheel> = left_made.into_iter().map(|(w, _)| w).collect();
+    let right_wheels: Vec<Wheel> = right_made.into_iter().map(|(w, _)| w).collect();
+    let (left_wheel, right_wheel) = (left_wheels[0].clone(), right_wheels[0].clone());
+    let all: Vec<&Wheel> = left_wheels.iter().chain(&right_wheels).collect();
+    let n_wheels = all.len() as f64;
 
-    let wheel_radius = 0.5 * (left_wheel.radius + right_wheel.radius);
-    let lift_left = left_wheel.radius - left_wheel.center.z;
-    let lift_right = right_wheel.radius - right_wheel.center.z;
-    if (lift_left - lift_right).abs() > 1e-3 {
+    let wheel_radius = all.iter().map(|w| w.radius).sum::<f64>() / n_wheels;
+    let lifts: Vec<f64> = all.iter().map(|w| w.radius - w.center.z).collect();
+    let (lift_lo, lift_hi) = (
+        lifts.iter().copied().fold(f64::MAX, f64::min),
+        lifts.iter().copied().fold(f64::MIN, f64::max),
+    );
+    if lift_hi - lift_lo > 1e-3 {
+        let each: Vec<String> = all
+            .iter()
+            .zip(&lifts)
+            .map(|(w, l)| format!("{} {l:.4} m", w.joint))
+            .collect();
         warnings.push(format!(
-            "the wheels do not reach the same floor height (left {lift_left:.4} m, right \
-             {lift_right:.4} m below the base origin); using their mean"
+            "the wheels do not reach the same floor height ({} below the base origin); using \
+             their mean",
+            each.join(", ")
         ));
     }
-    let base_height = 0.5 * (lift_left + lift_right);
+    let base_height = lifts.iter().sum::<f64>() / n_wheels;
     let floor_z = -base_height;
-    let axle_z = 0.5 * (left_wheel.center.z + right_wheel.center.z);
+    let axle_z = all.iter().map(|w| w.center.z).sum::<f64>() / n_wheels;
+    let drive_kind = if skid {
+        let (effective_track, effective_track_source) = match facts.skid_steer {
+            Some(EffectiveTrack::Metres(t)) => (t, TrackSource::Urdf),
+            Some(EffectiveTrack::Ratio(k)) => (k * wheel_separation, TrackSource::Urdf),
+            None => (
+                DEFAULT_EFFECTIVE_TRACK_RATIO * wheel_separation,
+                TrackSource::DefaultRatio,
+            ),
+        };
+        if effective_track < wheel_separation {
+            warnings.push(format!(
+                "<skid_steer> gives an effective track of {effective_track:.4} m, less than the \
+                 geometric track of {wheel_separation:.4} m; skid steers turn as if wider"
+            ));
+        }
+        DriveKind::SkidSteer(SkidSteer {
+            left: left_wheels,
+            right: right_wheels,
+            effective_track,
+            effective_track_source,
+        })
+    } else {
+        if facts.skid_steer.is_some() {
+            warnings.push(
+                "<skid_steer> is ignored: this robot is a differential drive (one driven wheel \
+                 per side)"
+                    .to_string(),
+            );
+        }
+        DriveKind::Differential
+    };
 
     // ---- who moves with whom
     let mut owner = vec![Owner::Chassis; nodes.len()];
@@ -1296,7 +1531,8 @@ fn build(
             parent
         } else if wheel_links.contains(&node.link.name) {
             Owner::Wheel
-        } else if is_caster_name(&node.link.name)
+        } else if centre_casters.contains(&i)
+            || is_caster_name(&node.link.name)
             || is_caster_name(&j.name)
             || (is_revolving(j) && node.axis.z.abs() > VERTICAL)
             || geometry[i].prims.iter().any(|p| {
@@ -1420,6 +1656,7 @@ fn build(
         wheel_separation,
         base_height,
         warnings,
+        drive_kind,
     };
     Ok((model, excluded))
 }
@@ -1577,16 +1814,118 @@ mod tests {
         assert_eq!(m.chassis_shapes.len(), 1, "the caster is not chassis");
     }
 
+    /// Two more wheels of radius `r2` at x = `x2` (jl2 left, jr2 right).
+    fn rear_pair(x2: f64, r2: f64) -> String {
+        let cyl = format!(
+            r#"<collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="{r2}" length="0.02"/></geometry></collision>"#
+        );
+        format!(
+            r#"<link name="wl2">{cyl}</link><link name="wr2">{cyl}</link>
+  <joint name="jl2" type="continuous"><parent link="base"/><child link="wl2"/><origin xyz="{x2} 0.2 0.05"/><axis xyz="0 1 0"/></joint>
+  <joint name="jr2" type="continuous"><parent link="base"/><child link="wr2"/><origin xyz="{x2} -0.2 0.05"/><axis xyz="0 1 0"/></joint>"#
+        )
+    }
+
     #[test]
-    fn skid_steer_is_rejected_naming_every_wheel() {
-        let extra = r#"<link name="wl2"><collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="0.05" length="0.02"/></geometry></collision></link>
-  <link name="wr2"><collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="0.05" length="0.02"/></geometry></collision></link>
-  <joint name="jl2" type="continuous"><parent link="base"/><child link="wl2"/><origin xyz="0.3 0.2 0.05"/><axis xyz="0 1 0"/></joint>
-  <joint name="jr2" type="continuous"><parent link="base"/><child link="wr2"/><origin xyz="0.3 -0.2 0.05"/><axis xyz="0 1 0"/></joint>"#;
-        let err = load_str(&robot(extra), "t.urdf").unwrap_err().to_string();
-        for name in ["jl", "jr", "jl2", "jr2", "exactly two drive wheels"] {
-            assert!(err.contains(name), "{err}");
+    fn four_lateral_wheels_load_as_a_skid_steer() {
+        let m = load_str(&robot(&rear_pair(-0.3, 0.05)), "t.urdf").unwrap();
+        let DriveKind::SkidSteer(s) = &m.drive_kind else {
+            panic!("{:?}", m.drive_kind)
+        };
+        let joints = |side: &[Wheel]| side.iter().map(|w| w.joint.clone()).collect::<Vec<_>>();
+        // Front to back on each side; the front wheels are the model's left and right wheel.
+        assert_eq!(joints(&s.left), ["jl", "jl2"]);
+        assert_eq!(joints(&s.right), ["jr", "jr2"]);
+        assert_eq!(m.left_wheel.joint, "jl");
+        assert!((m.wheel_separation - 0.4).abs() < 1e-12);
+        assert_eq!(s.effective_track_source, TrackSource::DefaultRatio);
+        assert!((s.effective_track - DEFAULT_EFFECTIVE_TRACK_RATIO * 0.4).abs() < 1e-12);
+        // The robot's software turns with the effective track.
+        assert!((m.drive().wheel_separation - s.effective_track).abs() < 1e-12);
+        // Four 0.1 kg wheels (2 % of the 5 kg chassis each).
+        assert!((m.mass() - 5.4).abs() < 1e-12, "{}", m.mass());
+        assert!(m.casters.is_empty());
+    }
+
+    #[test]
+    fn the_urdf_may_state_the_effective_track() {
+        let text = |el: &str| robot(&format!("{}{el}", rear_pair(-0.3, 0.05)));
+        let track = |el: &str| match load_str(&text(el), "t.urdf").unwrap().drive_kind {
+            DriveKind::SkidSteer(s) => (s.effective_track, s.effective_track_source),
+            other => panic!("{other:?}"),
+        };
+        let (t, src) = track(r#"<skid_steer effective_track_ratio="1.875"/>"#);
+        assert!((t - 0.75).abs() < 1e-12 && src == TrackSource::Urdf, "{t}");
+        let (t, _) = track(r#"<skid_steer effective_track="0.7"/>"#);
+        assert!((t - 0.7).abs() < 1e-12, "{t}");
+        for (el, expected) in [
+            (
+                r#"<skid_steer effective_track_ratio="9"/>"#,
+                "MAX_EFFECTIVE_TRACK_RATIO",
+            ),
+            (
+                r#"<skid_steer effective_track="-1"/>"#,
+                "skid_steer.effective_track",
+            ),
+            (r#"<skid_steer/>"#, "exactly one of"),
+        ] {
+            let err = load_str(&text(el), "t.urdf").unwrap_err().to_string();
+            assert!(
+                err.starts_with("t.urdf: ") && err.contains(expected),
+                "{err}"
+            );
         }
+        // On a differential drive the element is reported as ignored.
+        let m = load_str(
+            &robot(r#"<skid_steer effective_track_ratio="1.5"/>"#),
+            "t.urdf",
+        )
+        .unwrap();
+        assert_eq!(m.drive_kind, DriveKind::Differential);
+        assert!(m
+            .warnings
+            .iter()
+            .any(|w| w.contains("<skid_steer> is ignored")));
+    }
+
+    #[test]
+    fn an_undeterminable_drive_is_refused_naming_the_joints() {
+        // Three driven wheels on the left, two on the right.
+        let third = r#"<link name="wl3"><collision><origin rpy="1.5707963267948966 0 0"/><geometry><cylinder radius="0.05" length="0.02"/></geometry></collision></link>
+  <joint name="jl3" type="continuous"><parent link="base"/><child link="wl3"/><origin xyz="0.3 0.2 0.05"/><axis xyz="0 1 0"/></joint>"#;
+        let err = load_str(
+            &robot(&format!("{}{third}", rear_pair(-0.3, 0.05))),
+            "t.urdf",
+        )
+        .unwrap_err()
+        .to_string();
+        for e in [
+            "3 driven wheels on the left",
+            "jl3",
+            "jl2",
+            "jl ",
+            "2 on the right",
+            "jr2",
+        ] {
+            assert!(err.contains(e), "{e}: {err}");
+        }
+        // Mixed radii on one side.
+        let err = load_str(&robot(&rear_pair(-0.3, 0.06)), "t.urdf")
+            .unwrap_err()
+            .to_string();
+        for e in [
+            "left side",
+            "different radii",
+            "jl r = 0.05 m",
+            "jl2 r = 0.06 m",
+        ] {
+            assert!(err.contains(e), "{e}: {err}");
+        }
+        // Wheels of a side that overlap.
+        let err = load_str(&robot(&rear_pair(-0.05, 0.05)), "t.urdf")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("\"jl\" and \"jl2\" overlap"), "{err}");
     }
 
     #[test]

@@ -60,6 +60,7 @@ pub fn pioneer_3dx_like() -> RobotModel {
         wheel_separation: 0.33,
         base_height: 0.0,
         warnings: Vec::new(),
+        drive_kind: atrium_robots::model::DriveKind::Differential,
     }
 }
 
