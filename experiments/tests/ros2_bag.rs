@@ -84,7 +84,11 @@ fn a_bag_replays_to_exactly_the_live_run() {
             // estimates: stamped at the scoring instants, with x, y exact, so the position
             // errors are the live run's.
             // (odometry: mcl's expectations name a baseline a score does not run)
-            let l = live.localizers.iter().find(|l| l.name == "odometry").unwrap();
+            let l = live
+                .localizers
+                .iter()
+                .find(|l| l.name == "odometry")
+                .unwrap();
             let scored = atrium_experiments::score::score(
                 &bag,
                 &bag,
