@@ -656,12 +656,32 @@ pub fn record(
     registry: &LocalizerRegistry,
     scenario: &Scenario,
     path: &Path,
-    mut options: RunOptions,
+    options: RunOptions,
 ) -> Result<Recorded, ScenarioError> {
     let seed = options.seed.unwrap_or(scenario.seed);
     let mut recorder = Recorder::create(path, scenario, seed)?;
+    let run = run_observed(registry, scenario, seed, options, &mut recorder)?;
+    let messages = recorder.messages();
+    let bytes = recorder.finish(&run)?;
+    Ok(Recorded {
+        run,
+        path: path.to_path_buf(),
+        bytes,
+        messages,
+    })
+}
+
+/// Runs `scenario` live with `seed`, every instant shown to `observer` (a recorder of either
+/// profile).
+pub(crate) fn run_observed(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    seed: u64,
+    mut options: RunOptions,
+    observer: &mut dyn RunObserver,
+) -> Result<RunResult, ScenarioError> {
     let mut stream = SimStream::new(scenario, seed)?;
-    let run = registry.run_stream(
+    registry.run_stream(
         scenario,
         seed,
         &mut stream,
@@ -673,17 +693,9 @@ pub fn record(
                 .progress
                 .as_deref_mut()
                 .map(|p| p as &mut dyn FnMut(f64, f64)),
-            observer: Some(&mut recorder),
+            observer: Some(observer),
         },
-    )?;
-    let messages = recorder.messages();
-    let bytes = recorder.finish(&run)?;
-    Ok(Recorded {
-        run,
-        path: path.to_path_buf(),
-        bytes,
-        messages,
-    })
+    )
 }
 
 #[cfg(test)]

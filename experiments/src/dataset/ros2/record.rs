@@ -18,13 +18,15 @@ use super::cdr::CdrWriter;
 use super::msgs;
 use crate::dataset::codec::{self, ns_of};
 use crate::dataset::images;
-use crate::dataset::record::{content_hash, events_from_json, METADATA_NAME, SUMMARY_NAME};
+use crate::dataset::record::{
+    content_hash, events_from_json, run_observed, METADATA_NAME, SUMMARY_NAME,
+};
 use crate::dataset::scene::robot_transforms;
 use crate::dataset::{topics, Recorded};
 use atrium_localization::Estimate;
 use atrium_robots::{Mount3, Pose2, Reading};
 use atrium_scenarios::error::ScenarioError;
-use atrium_scenarios::runner::{RunObserver, RunOptions, RunResult, SimStream, Tick};
+use atrium_scenarios::runner::{RunObserver, RunOptions, RunResult, Tick};
 use atrium_scenarios::scenario::{Event, Scenario};
 use atrium_scenarios::LocalizerRegistry;
 use foxglove::messages as fg;
@@ -1043,25 +1045,11 @@ pub fn record_ros2(
     registry: &LocalizerRegistry,
     scenario: &Scenario,
     dir: &Path,
-    mut options: RunOptions,
+    options: RunOptions,
 ) -> Result<Recorded, ScenarioError> {
     let seed = options.seed.unwrap_or(scenario.seed);
     let mut recorder = Ros2Recorder::create(dir, scenario, seed)?;
-    let mut stream = SimStream::new(scenario, seed)?;
-    let run = registry.run_stream(
-        scenario,
-        seed,
-        &mut stream,
-        &scenario.events,
-        RunOptions {
-            seed: Some(seed),
-            progress: options
-                .progress
-                .as_deref_mut()
-                .map(|p| p as &mut dyn FnMut(f64, f64)),
-            observer: Some(&mut recorder),
-        },
-    )?;
+    let run = run_observed(registry, scenario, seed, options, &mut recorder)?;
     let messages = recorder.messages();
     let bytes = recorder.finish(&run)?;
     Ok(Recorded {
