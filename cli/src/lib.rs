@@ -56,6 +56,10 @@ enum Command {
         min_pass: Option<usize>,
         #[arg(long)]
         json: bool,
+        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
+        /// (also `ATRIUM_NO_CACHE=1`).
+        #[arg(long)]
+        no_cache: bool,
     },
     /// Run a node-route scenario several times and print its node-error table (Table II of
     /// 002): per node and run, mm, for the landmark filter and every other localizer.
@@ -79,6 +83,10 @@ enum Command {
         /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
+        /// (also `ATRIUM_NO_CACHE=1`).
+        #[arg(long)]
+        no_cache: bool,
     },
     /// Show what Atrium derives from a robot or world file.
     Inspect {
@@ -109,6 +117,10 @@ enum Command {
         /// Print one JSON document (the run's report plus the recording's size).
         #[arg(long)]
         json: bool,
+        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
+        /// (also `ATRIUM_NO_CACHE=1`).
+        #[arg(long)]
+        no_cache: bool,
     },
     /// Feed a recording to the localizers and score them against its ground truth.
     Replay {
@@ -136,7 +148,8 @@ enum Command {
     Sweep(SweepArgs),
     /// Measure whole-run throughput on this machine.
     Bench {
-        /// all, corridor_tracking, laser, empca or sweep (`atrium bench sweep SWEEP`).
+        /// all, corridor_tracking, tour, cgr_corridor, laser, empca or sweep (`atrium bench
+        /// sweep SWEEP`).
         #[arg(default_value = "all")]
         what: String,
         /// sweep: the sweep file to measure.
@@ -158,6 +171,13 @@ enum Command {
         /// empca: fraction of entries missing at random (default 0.2).
         #[arg(long = "missing")]
         empca_missing: Option<f64>,
+        /// Let the on-disk cache serve learnt WiFi graphs and training runs (default: every
+        /// run builds them, and startup is timed without the cache's help).
+        #[arg(long, conflicts_with = "no_cache")]
+        with_cache: bool,
+        /// The default: time runs without the on-disk cache.
+        #[arg(long)]
+        no_cache: bool,
     },
 }
 
@@ -181,6 +201,10 @@ struct SweepArgs {
     /// Output folder (default: sweep-<sweep file stem>).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs (also
+    /// `ATRIUM_NO_CACHE=1`).
+    #[arg(long)]
+    no_cache: bool,
 }
 
 #[derive(Subcommand)]
@@ -195,6 +219,9 @@ enum SweepAction {
 
 fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, BadInput> {
     use atrium_experiments::sweep;
+    if args.no_cache {
+        atrium_scenarios::disk_cache::set_enabled(false);
+    }
     if let Some(SweepAction::Merge {
         out_dir,
         shard_dirs,
@@ -368,7 +395,11 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             seeds,
             min_pass,
             json,
+            no_cache,
         }) => {
+            if no_cache {
+                atrium_scenarios::disk_cache::set_enabled(false);
+            }
             use atrium_experiments::seed_check;
             let seeds = seed_check::parse_seeds(&seeds).map_err(anyhow::Error::msg)?;
             let scenario = Scenario::load(&scenario)?;
@@ -418,7 +449,13 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             seed,
             json,
             out,
-        }) => run(registry, scenario, seed, json, out),
+            no_cache,
+        }) => {
+            if no_cache {
+                atrium_scenarios::disk_cache::set_enabled(false);
+            }
+            run(registry, scenario, seed, json, out)
+        }
         Some(Command::Inspect {
             what: InspectWhat::Robot { urdf, json },
         }) => {
@@ -494,14 +531,20 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             profile,
             seed,
             json,
-        }) => Ok(dataset_cli::record_command(
-            registry,
-            &scenario,
-            &output,
-            profile == "ros2",
-            seed,
-            json,
-        )?),
+            no_cache,
+        }) => {
+            if no_cache {
+                atrium_scenarios::disk_cache::set_enabled(false);
+            }
+            Ok(dataset_cli::record_command(
+                registry,
+                &scenario,
+                &output,
+                profile == "ros2",
+                seed,
+                json,
+            )?)
+        }
         Some(Command::Replay {
             file,
             scenario,
@@ -523,7 +566,10 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             empca_n,
             empca_dim,
             empca_missing,
+            with_cache,
+            no_cache: _,
         }) => {
+            atrium_scenarios::disk_cache::set_enabled(with_cache);
             let doc = if what == "sweep" {
                 let file = sweep_file.ok_or_else(|| {
                     anyhow::anyhow!(

@@ -526,6 +526,101 @@ impl WifiGraph {
         ]
     }
 
+    /// A compact, lossless binary encoding (little-endian; every f64 bit for bit), read back
+    /// by [`WifiGraph::from_bytes`]: the on-disk cache's form of a learnt graph.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let n = self.mean.len() + self.var.len();
+        let mut out = Vec::with_capacity(128 + 8 * n + self.free.len() + 64 * self.aps.len());
+        let u64s = |out: &mut Vec<u8>, v: u64| out.extend_from_slice(&v.to_le_bytes());
+        let f64s = |out: &mut Vec<u8>, v: f64| out.extend_from_slice(&v.to_bits().to_le_bytes());
+        u64s(&mut out, u64::from(self.version));
+        f64s(&mut out, self.origin[0]);
+        f64s(&mut out, self.origin[1]);
+        f64s(&mut out, self.spacing);
+        u64s(&mut out, self.width as u64);
+        u64s(&mut out, self.height as u64);
+        u64s(&mut out, self.samples as u64);
+        f64s(&mut out, self.cutoff_dbm);
+        u64s(&mut out, self.aps.len() as u64);
+        for ap in &self.aps {
+            u64s(&mut out, ap.name.len() as u64);
+            out.extend_from_slice(ap.name.as_bytes());
+            f64s(&mut out, ap.kernel.length_scale);
+            f64s(&mut out, ap.kernel.signal_sd);
+            f64s(&mut out, ap.kernel.noise_sd);
+            f64s(&mut out, ap.prior_mean);
+            u64s(&mut out, ap.heard as u64);
+        }
+        for v in [&self.mean, &self.var] {
+            u64s(&mut out, v.len() as u64);
+            for x in v.iter() {
+                f64s(&mut out, *x);
+            }
+        }
+        u64s(&mut out, self.free.len() as u64);
+        out.extend(self.free.iter().map(|&f| u8::from(f)));
+        out
+    }
+
+    /// Reads [`WifiGraph::to_bytes`]; `None` for bytes that are not a whole, valid graph.
+    pub fn from_bytes(bytes: &[u8]) -> Option<WifiGraph> {
+        let mut c = Cursor { bytes, at: 0 };
+        let version = u32::try_from(c.u64()?).ok()?;
+        let origin = [c.f64()?, c.f64()?];
+        let spacing = c.f64()?;
+        let width = c.usize()?;
+        let height = c.usize()?;
+        let samples = c.usize()?;
+        let cutoff_dbm = c.f64()?;
+        // Each access point takes at least 48 bytes: refuse counts the rest cannot hold.
+        let n_ap = c.count(48)?;
+        let mut aps = Vec::with_capacity(n_ap);
+        for _ in 0..n_ap {
+            let len = c.count(1)?;
+            let name = String::from_utf8(c.take(len)?.to_vec()).ok()?;
+            let kernel = SeKernel {
+                length_scale: c.f64()?,
+                signal_sd: c.f64()?,
+                noise_sd: c.f64()?,
+            };
+            aps.push(GraphAp {
+                name,
+                kernel,
+                prior_mean: c.f64()?,
+                heard: c.usize()?,
+            });
+        }
+        let mut arrays = Vec::with_capacity(2);
+        for _ in 0..2 {
+            let len = c.count(8)?;
+            arrays.push((0..len).map(|_| c.f64()).collect::<Option<Vec<f64>>>()?);
+        }
+        let len = c.count(1)?;
+        let raw = c.take(len)?;
+        if raw.iter().any(|&b| b > 1) || c.at != bytes.len() {
+            return None;
+        }
+        let free = raw.iter().map(|&b| b == 1).collect();
+        let var = arrays.pop()?;
+        let mean = arrays.pop()?;
+        let g = WifiGraph {
+            format: FORMAT.to_string(),
+            version,
+            origin,
+            spacing,
+            width,
+            height,
+            aps,
+            samples,
+            cutoff_dbm,
+            mean,
+            var,
+            free,
+        };
+        g.check().ok()?;
+        Some(g)
+    }
+
     /// Writes the graph as JSON, to a temporary name first, renamed when complete.
     pub fn save(&self, path: &Path) -> std::io::Result<()> {
         let text = serde_json::to_string(self).map_err(std::io::Error::other)?;
@@ -542,6 +637,34 @@ impl WifiGraph {
             .map_err(|e| format!("{}: not a WiFi graph: {e}", path.display()))?;
         g.check().map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(g)
+    }
+}
+
+/// Little-endian reading for [`WifiGraph::from_bytes`]; `None` past the end.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let s = self.bytes.get(self.at..self.at.checked_add(n)?)?;
+        self.at += n;
+        Some(s)
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn f64(&mut self) -> Option<f64> {
+        Some(f64::from_bits(self.u64()?))
+    }
+    fn usize(&mut self) -> Option<usize> {
+        usize::try_from(self.u64()?).ok()
+    }
+    /// A count of items of at least `item` bytes each that the rest can hold.
+    fn count(&mut self, item: usize) -> Option<usize> {
+        let n = self.usize()?;
+        (n.checked_mul(item)? <= self.bytes.len() - self.at).then_some(n)
     }
 }
 
@@ -650,6 +773,24 @@ mod tests {
         g.save(&path).unwrap();
         let back = WifiGraph::load(&path).unwrap();
         assert!(back == g, "the loaded graph differs from the saved one");
+        // The binary form is lossless, and anything but a whole graph is refused.
+        let bytes = g.to_bytes();
+        let back = WifiGraph::from_bytes(&bytes).unwrap();
+        assert!(back == g, "the binary form differs");
+        assert!(back
+            .mean
+            .iter()
+            .zip(&g.mean)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        for cut in [0, 1, 8, bytes.len() / 2, bytes.len() - 1] {
+            assert!(
+                WifiGraph::from_bytes(&bytes[..cut]).is_none(),
+                "cut at {cut}"
+            );
+        }
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(WifiGraph::from_bytes(&longer).is_none());
         std::fs::write(&path, "{\"format\": 3}").unwrap();
         assert!(WifiGraph::load(&path).unwrap_err().contains("g.json"));
         std::fs::remove_dir_all(&dir).unwrap();

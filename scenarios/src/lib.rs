@@ -14,6 +14,7 @@ pub mod error;
 pub mod error_maps;
 pub mod expect;
 pub mod load_cache;
+pub mod disk_cache;
 pub mod map_cache;
 pub mod maps;
 pub mod metrics;

@@ -38,9 +38,8 @@
 //! run count (as the WiFi survey is), so the choosers of one scenario share one training.
 
 use crate::error::ScenarioError;
-use crate::error_maps::accumulate;
 use crate::registry::{BuildContext, LocalizerRegistry};
-use crate::runner::{RunObserver, RunOptions, RunResult, SimStream, Tick};
+use crate::runner::{RunObserver, RunOptions, SimStream, Tick};
 use crate::scenario::Scenario;
 use crate::seeds::derive_seed;
 use atrium_localization::chooser::{Chooser, ReseedParams, Strategy};
@@ -48,7 +47,7 @@ use atrium_localization::error_map::ErrorMap;
 use atrium_localization::limits::{check_count, MAX_LOOKUP_RADIUS_CELLS, MAX_TRAINING_RUNS};
 use atrium_localization::mixture::{log_density_xy, mixture_weights, MixtureGroup, RegionMixture};
 use atrium_localization::{Estimate, Localizer};
-use atrium_robots::Reading;
+use atrium_robots::{Pose2, Reading};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -92,11 +91,92 @@ const DATA_DRIVEN_KEYS: [&str; 5] = [
 /// At most this many training samples per group go into the convex program (evenly spaced).
 const MAX_MIXTURE_SAMPLES: usize = 3000;
 
-/// One training run: its result, and at every scored instant the estimates (with
-/// covariances) of the training scenario's localizers, in `names` order.
+/// One training run: at every scored instant the ground truth, and the position errors and
+/// estimates (with covariances) of the training scenario's localizers, in `names` order.
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrainingRun {
-    pub result: RunResult,
+    pub ground_truth: Vec<(f64, Pose2)>,
+    /// `position_errors[localizer][instant]`, m.
+    pub position_errors: Vec<Vec<f64>>,
+    /// `estimates[instant][localizer]`.
     pub estimates: Vec<Vec<Estimate>>,
+}
+
+/// Part of the disk cache's key of training runs: bump when a run makes something else from
+/// the same inputs (the executable's identity is in the key too).
+const TRAINING_VERSION: u32 = 1;
+
+/// The disk cache's encoding of training runs (every f64 bit for bit).
+fn runs_to_bytes(runs: &[TrainingRun]) -> Vec<u8> {
+    let mut w = crate::disk_cache::Writer::default();
+    w.u64(runs.len() as u64);
+    for run in runs {
+        w.u64(run.ground_truth.len() as u64);
+        for (t, p) in &run.ground_truth {
+            for v in [*t, p.x, p.y, p.theta] {
+                w.f64(v);
+            }
+        }
+        w.u64(run.position_errors.len() as u64);
+        for e in &run.position_errors {
+            w.f64s(e);
+        }
+        w.u64(run.estimates.len() as u64);
+        for instant in &run.estimates {
+            w.u64(instant.len() as u64);
+            for e in instant {
+                for v in [e.stamp, e.pose.x, e.pose.y, e.pose.theta] {
+                    w.f64(v);
+                }
+                for v in e.covariance.as_slice() {
+                    w.f64(*v);
+                }
+            }
+        }
+    }
+    w.0
+}
+
+fn runs_from_bytes(bytes: &[u8]) -> Option<Vec<TrainingRun>> {
+    let mut r = crate::disk_cache::Reader::new(bytes);
+    let n = r.len(24)?;
+    let mut runs = Vec::with_capacity(n);
+    for _ in 0..n {
+        let m = r.len(32)?;
+        let mut ground_truth = Vec::with_capacity(m);
+        for _ in 0..m {
+            let t = r.f64()?;
+            ground_truth.push((t, Pose2::new(r.f64()?, r.f64()?, r.f64()?)));
+        }
+        let k = r.len(8)?;
+        let position_errors = (0..k).map(|_| r.f64s()).collect::<Option<Vec<_>>>()?;
+        let m2 = r.len(8)?;
+        let mut estimates = Vec::with_capacity(m2);
+        for _ in 0..m2 {
+            let k2 = r.len(13 * 8)?;
+            let mut instant = Vec::with_capacity(k2);
+            for _ in 0..k2 {
+                let stamp = r.f64()?;
+                let pose = Pose2::new(r.f64()?, r.f64()?, r.f64()?);
+                let mut cov = [0.0; 9];
+                for c in &mut cov {
+                    *c = r.f64()?;
+                }
+                instant.push(Estimate {
+                    stamp,
+                    pose,
+                    covariance: nalgebra::Matrix3::from_column_slice(&cov),
+                });
+            }
+            estimates.push(instant);
+        }
+        runs.push(TrainingRun {
+            ground_truth,
+            position_errors,
+            estimates,
+        });
+    }
+    r.is_empty().then_some(runs)
 }
 
 /// Every run of a training scenario.
@@ -111,8 +191,16 @@ impl Training {
     pub fn error_map(&self, resolution: f64) -> Result<ErrorMap, String> {
         let (min, max) = self.scenario.world.bounds();
         let mut map = ErrorMap::new(min, max, resolution, self.names.clone())?;
+        // As `crate::error_maps::accumulate` over each run's result.
         for run in &self.runs {
-            accumulate(&mut map, &run.result);
+            for (name, errors) in self.names.iter().zip(&run.position_errors) {
+                let Some(layer) = map.localizer_index(name) else {
+                    continue;
+                };
+                for ((_, truth), e) in run.ground_truth.iter().zip(errors) {
+                    map.add(layer, [truth.x, truth.y], *e);
+                }
+            }
         }
         Ok(map)
     }
@@ -157,6 +245,13 @@ pub fn train(
         map.entry(key).or_default().clone()
     };
     slot.get_or_init(|| {
+        // On disk (`disk_cache`) under every input of the training scenario, the run count
+        // and the registry's kinds; not when a localizer runs in another process (its
+        // program is not part of the key).
+        let mut disk_key =
+            format!("chooser training {TRAINING_VERSION}\n{runs}\n{registry:?}\n").into_bytes();
+        disk_key.extend(crate::disk_cache::scenario_inputs(&scenario));
+        let external = scenario.localizers.iter().any(|l| l.kind == "process");
         // A chooser in the training scenario would train on it again: only single-sensor
         // localizers are evaluated.
         scenario
@@ -169,14 +264,48 @@ pub fn train(
                 path.display()
             ));
         }
-        let mut out = Vec::with_capacity(runs);
+        let names: Vec<String> = scenario.localizers.iter().map(|l| l.name.clone()).collect();
+        let build = || run_training(registry, &scenario, runs);
+        let out = if external {
+            build()?
+        } else {
+            crate::disk_cache::cached(
+                "chooser_training",
+                &disk_key,
+                build,
+                |r| runs_to_bytes(r),
+                |b| {
+                    runs_from_bytes(b).filter(|r| {
+                        r.len() == runs
+                            && r.iter().all(|run| run.position_errors.len() == names.len())
+                    })
+                },
+            )?
+        };
+        Ok(Arc::new(Training {
+            scenario,
+            names,
+            runs: out,
+        }))
+    })
+    .clone()
+}
+
+/// `runs` runs of the training scenario (choosers removed).
+fn run_training(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    runs: usize,
+) -> Result<Vec<TrainingRun>, String> {
+    let mut out = Vec::with_capacity(runs);
+    {
         for i in 0..runs {
             let seed = derive_seed(scenario.seed, &format!("chooser_training/{i}"));
-            let mut stream = SimStream::new(&scenario, seed).map_err(|e| e.to_string())?;
+            let mut stream = SimStream::new(scenario, seed).map_err(|e| e.to_string())?;
             let mut collect = Collect(Vec::new());
             let result = registry
                 .run_stream(
-                    &scenario,
+                    scenario,
                     seed,
                     &mut stream,
                     &scenario.events,
@@ -187,18 +316,17 @@ pub fn train(
                 )
                 .map_err(|e| e.to_string())?;
             out.push(TrainingRun {
-                result,
+                ground_truth: result.ground_truth,
+                position_errors: result
+                    .localizers
+                    .iter()
+                    .map(|l| l.samples.iter().map(|s| s.position_error).collect())
+                    .collect(),
                 estimates: collect.0,
             });
         }
-        let names = scenario.localizers.iter().map(|l| l.name.clone()).collect();
-        Ok(Arc::new(Training {
-            scenario,
-            names,
-            runs: out,
-        }))
-    })
-    .clone()
+        Ok(out)
+    }
 }
 
 /// Mixture weights per group of the world's regions (by kind or by name) learnt from
@@ -229,7 +357,7 @@ pub fn learn_region_mixture(
     let mut samples: Vec<([f64; 2], Vec<Estimate>)> = Vec::new();
     let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for run in &training.runs {
-        for ((_, truth), est) in run.result.ground_truth.iter().zip(&run.estimates) {
+        for ((_, truth), est) in run.ground_truth.iter().zip(&run.estimates) {
             let p = [truth.x, truth.y];
             if let Some(r) = world.region_at(p) {
                 groups.entry(key_of(r)).or_default().push(samples.len());

@@ -7,8 +7,9 @@
 //!   survey is deterministic (its own seed, its own scan-noise stream; the shadow field is the
 //!   world's), so the graph is a pure function of the survey file, its world and robot, and
 //!   the `learn` parameters. Within one process the result is memoised under exactly that
-//!   input (the full texts, not a hash), so scenarios sharing a survey learn it once; a cache
-//!   hit returns what a recomputation would, so no result depends on the cache.
+//!   input (the full texts, not a hash), so scenarios sharing a survey learn it once, and
+//!   across processes on disk (`crate::disk_cache`); a cache hit returns what a
+//!   recomputation would, so no result depends on the cache.
 //! - `graph = "campus_wifi.json"`: a graph saved by `atrium wifi-graph` (or
 //!   [`atrium_localization::wifi_graph::WifiGraph::save`]).
 //!
@@ -30,6 +31,10 @@ use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
 type Slot = Arc<OnceLock<Result<Arc<WifiGraph>, String>>>;
+
+/// Part of the disk cache's key of a learnt graph: bump when the survey or the learning
+/// changes what it makes from the same inputs (the executable's identity is in the key too).
+const WIFI_GRAPH_VERSION: u32 = 1;
 
 fn cache() -> &'static Mutex<HashMap<String, Slot>> {
     static CACHE: OnceLock<Mutex<HashMap<String, Slot>>> = OnceLock::new();
@@ -128,9 +133,18 @@ fn graph_from_training(
     // Outside the map's lock: a second scenario asking for the same survey waits here for
     // the first to finish, others proceed.
     let result = slot.get_or_init(|| {
-        learn_from_survey(&survey_scenario, params)
-            .map(Arc::new)
-            .map_err(|e| e.to_string())
+        // Then on disk (`disk_cache`), under every input of the survey and the parameters.
+        let mut disk_key = format!("wifi graph {WIFI_GRAPH_VERSION}\n{params:?}\n").into_bytes();
+        disk_key.extend(crate::disk_cache::scenario_inputs(&survey_scenario));
+        crate::disk_cache::cached(
+            "wifi_graph",
+            &disk_key,
+            || learn_from_survey(&survey_scenario, params),
+            WifiGraph::to_bytes,
+            WifiGraph::from_bytes,
+        )
+        .map(Arc::new)
+        .map_err(|e| e.to_string())
     });
     result
         .clone()

@@ -1,0 +1,120 @@
+//! The on-disk cache (`atrium_scenarios::disk_cache`) end to end: a run that builds the WiFi
+//! graph and stores it, a run that reads it back, and a run with `--no-cache` give the same
+//! results; a corrupt entry is rebuilt. Each test uses its own cache folder
+//! (`ATRIUM_CACHE_DIR` set on the child process only), so no test depends on the cache's
+//! state.
+
+#[allow(dead_code)]
+mod common;
+
+use common::tmpdir;
+use std::path::Path;
+use std::process::Command;
+
+/// A short survey (40 s on the campus corridors) and a 20 s scenario learning from it.
+fn write_scenarios(dir: &Path) -> std::path::PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let world = root.join("worlds/campus.toml");
+    let robot = root.join("robots/urdf/pioneer3dx.urdf");
+    let head = format!(
+        "world = {:?}\nrobot = {:?}\n",
+        world.display().to_string(),
+        robot.display().to_string()
+    );
+    std::fs::write(
+        dir.join("survey.toml"),
+        format!(
+            "name = \"survey\"\n{head}seed = 5\nduration_s = 40.0\n\
+             [start]\npose = [2.0, 20.0, 0.0]\n\
+             [route]\nwaypoints = [[10.0, 20.0], [10.0, 1.5], [29.0, 1.5]]\n\
+             [[localizers]]\nname = \"odometry\"\nkind = \"dead_reckoning\"\n"
+        ),
+    )
+    .unwrap();
+    let run = dir.join("run.toml");
+    std::fs::write(
+        &run,
+        format!(
+            "name = \"cached_wifi\"\n{head}seed = 7\nduration_s = 20.0\n\
+             [start]\npose = [2.0, 20.0, 0.0]\n\
+             [route]\nwaypoints = [[10.0, 20.0], [10.0, 5.0]]\n\
+             [[localizers]]\nname = \"wifi\"\nkind = \"wifi\"\ntraining = \"survey.toml\"\n\
+             particles = 200\n"
+        ),
+    )
+    .unwrap();
+    run
+}
+
+/// `atrium run --json` with the cache in `cache`; the JSON without its timing.
+fn run(scenario: &Path, cache: &Path, extra: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_atrium"))
+        .arg("run")
+        .arg(scenario)
+        .arg("--json")
+        .args(extra)
+        .env("ATRIUM_CACHE_DIR", cache)
+        .env_remove("ATRIUM_NO_CACHE")
+        .output()
+        .expect("run atrium");
+    assert!(
+        out.status.success() || out.status.code() == Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    v.as_object_mut().unwrap().remove("timing");
+    v
+}
+
+fn entries(cache: &Path) -> Vec<std::path::PathBuf> {
+    match std::fs::read_dir(cache) {
+        Ok(d) => d.filter_map(|e| e.ok().map(|e| e.path())).collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+#[test]
+fn a_cache_hit_gives_the_results_of_a_rebuild() {
+    let dir = tmpdir("disk-cache");
+    let scenario = write_scenarios(&dir);
+    let cache = dir.join("cache");
+
+    let uncached = run(&scenario, &cache, &["--no-cache"]);
+    assert!(entries(&cache).is_empty(), "--no-cache writes nothing");
+
+    let first = run(&scenario, &cache, &[]);
+    let stored = entries(&cache);
+    assert_eq!(stored.len(), 1, "one WiFi graph stored: {stored:?}");
+    assert!(stored[0]
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .starts_with("wifi_graph-"));
+    let written = std::fs::metadata(&stored[0]).unwrap().modified().unwrap();
+
+    let second = run(&scenario, &cache, &[]);
+    assert_eq!(
+        std::fs::metadata(&stored[0]).unwrap().modified().unwrap(),
+        written,
+        "a hit does not rewrite the entry"
+    );
+    assert_eq!(first, uncached);
+    assert_eq!(second, uncached);
+
+    // A truncated entry is detected, rebuilt and rewritten whole.
+    let whole = std::fs::read(&stored[0]).unwrap();
+    std::fs::write(&stored[0], &whole[..whole.len() / 2]).unwrap();
+    let third = run(&scenario, &cache, &[]);
+    assert_eq!(third, uncached);
+    assert_eq!(std::fs::read(&stored[0]).unwrap(), whole);
+
+    // An edited survey is another key: a second entry, not a stale hit.
+    let survey = dir.join("survey.toml");
+    let text = std::fs::read_to_string(&survey).unwrap();
+    std::fs::write(&survey, text.replace("seed = 5", "seed = 6")).unwrap();
+    let edited = run(&scenario, &cache, &[]);
+    assert_eq!(entries(&cache).len(), 2);
+    assert_ne!(edited, uncached, "another survey, another graph");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

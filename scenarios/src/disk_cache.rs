@@ -1,0 +1,545 @@
+//! On-disk cache of what is expensive to derive from a world and a training run (the WiFi
+//! graph learnt from a survey run, a chooser's training runs), so a later process with the
+//! same inputs starts at once. It sits under the in-process memos (`map_cache`, the survey
+//! and training memos): those are asked first, this second, the build last.
+//!
+//! **Key.** The caller gives the full text of every input (the texts of the scenario, world,
+//! robot and sensor files, and of every file a localizer names, recursively: see
+//! [`scenario_inputs`]; the parsed world, robot and WiFi scanner; the parameters; the seed is
+//! in the scenario text). [`FORMAT_VERSION`], the entry's kind with its own version, and the
+//! identity of the running executable (size and modification time) are added: a value
+//! depends on the simulator and the localizers, code other crates change, so an entry
+//! written by another build is never trusted (a rebuilt `atrium` rebuilds its entries once).
+//! The file is named by a 128-bit hash of the key without the executable's identity (a new
+//! build overwrites its predecessor's entry instead of piling up beside it), and the entry
+//! holds the whole key, compared byte for byte on reading: a hash collision is a miss,
+//! never a wrong value.
+//!
+//! **Entry.** `ATRCACH1`, u32 format version, u64 key length, u64 payload length, u64
+//! payload checksum, the key, the payload (all little-endian). An entry whose length, key or
+//! checksum disagrees, or whose payload does not decode, is rebuilt and overwritten, never
+//! trusted.
+//!
+//! **Concurrency.** An entry is written to a unique temporary file in the same folder
+//! (process id, counter, time), flushed to disk (`fsync`) and renamed over the entry: a
+//! reader sees a whole entry or none, and processes of a sweep that build the same entry
+//! at once each rename an identical file. A cache that cannot be written (read-only folder,
+//! full disk) costs a rebuild next time, never a failed run.
+//!
+//! **Location** ([`default_dir`]): `$ATRIUM_CACHE_DIR`; else `atrium-cache` in the Cargo
+//! target folder the running executable was built in (found by its `CACHEDIR.TAG`: entries
+//! live beside the build they depend on, `cargo clean` removes both, and a source checkout
+//! writes nothing into the home folder); else `$XDG_CACHE_HOME/atrium`, else
+//! `~/.cache/atrium` (an installed binary).
+//!
+//! **Bypass.** `--no-cache` on the commands that run scenarios ([`set_enabled`]`(false)`) or
+//! `ATRIUM_NO_CACHE=1`: nothing is read or written. A hit returns exactly the value a
+//! rebuild makes (the values are encoded losslessly), so no result depends on the cache.
+
+use crate::scenario::Scenario;
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
+use std::sync::OnceLock;
+
+/// Bumped when the entry layout or the meaning of a key changes.
+pub const FORMAT_VERSION: u32 = 1;
+const MAGIC: &[u8; 8] = b"ATRCACH1";
+const HEADER: usize = 8 + 4 + 8 + 8 + 8;
+
+/// 0: not set (the environment decides), 1: on, 2: off.
+static ENABLED: AtomicU8 = AtomicU8::new(0);
+
+/// Turns the disk cache on or off for this process (the CLI's `--no-cache`); overrides
+/// `ATRIUM_NO_CACHE`.
+pub fn set_enabled(on: bool) {
+    ENABLED.store(if on { 1 } else { 2 }, Ordering::SeqCst);
+}
+
+/// Whether runs read and write the disk cache: [`set_enabled`] if called, else unless
+/// `ATRIUM_NO_CACHE` is set to anything but empty, `0` or `false`.
+pub fn enabled() -> bool {
+    match ENABLED.load(Ordering::SeqCst) {
+        1 => true,
+        2 => false,
+        _ => {
+            !std::env::var("ATRIUM_NO_CACHE").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"))
+        }
+    }
+}
+
+/// The cache folder (see the module docs), or `None` when no folder can be named.
+pub fn default_dir() -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os("ATRIUM_CACHE_DIR").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(d));
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        // target/<profile>/atrium, target/<profile>/deps/<test>, target/<triple>/<profile>/..
+        for dir in exe.ancestors().skip(1).take(4) {
+            if dir.join("CACHEDIR.TAG").is_file() {
+                return Some(dir.join("atrium-cache"));
+            }
+        }
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(d).join("atrium"));
+    }
+    std::env::var_os("HOME")
+        .filter(|d| !d.is_empty())
+        .map(|h| PathBuf::from(h).join(".cache").join("atrium"))
+}
+
+/// The running executable's identity: its size and modification time (a rebuild changes
+/// them). Part of every key.
+fn exe_identity() -> &'static str {
+    static ID: OnceLock<String> = OnceLock::new();
+    ID.get_or_init(|| {
+        let meta = std::env::current_exe().and_then(std::fs::metadata);
+        match meta {
+            Ok(m) => {
+                let mtime = m
+                    .modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos());
+                format!("exe {} bytes, modified {mtime} ns", m.len())
+            }
+            // Unknown executable: a key no other process shares.
+            Err(_) => format!("exe unknown, process {}", std::process::id()),
+        }
+    })
+}
+
+/// A 64-bit hash of `bytes` (word at a time; not cryptographic): the payload checksum and,
+/// with two seeds, the entry's file name.
+pub fn hash64(seed: u64, bytes: &[u8]) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut h = seed ^ (bytes.len() as u64).wrapping_mul(K);
+    let mut chunks = bytes.chunks_exact(8);
+    for c in &mut chunks {
+        let w = u64::from_le_bytes(c.try_into().unwrap_or([0; 8]));
+        h = (h ^ w).wrapping_mul(K);
+        h ^= h >> 29;
+    }
+    let mut tail = [0u8; 8];
+    tail[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
+    h = (h ^ u64::from_le_bytes(tail)).wrapping_mul(K);
+    h ^= h >> 32;
+    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    h ^ (h >> 33)
+}
+
+/// A cache folder. [`DiskCache::global`] is the one runs use; tests make their own.
+#[derive(Debug, Clone)]
+pub struct DiskCache {
+    dir: PathBuf,
+}
+
+impl DiskCache {
+    pub fn at(dir: impl Into<PathBuf>) -> DiskCache {
+        DiskCache { dir: dir.into() }
+    }
+
+    /// The process's cache: `None` when disabled or no folder can be named.
+    pub fn global() -> Option<DiskCache> {
+        if !enabled() {
+            return None;
+        }
+        default_dir().map(DiskCache::at)
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The entry file for `kind` and `key` (without the executable's identity).
+    pub fn entry_path(&self, kind: &str, key: &[u8]) -> PathBuf {
+        let a = hash64(0x6174_7269_756d_0001, key);
+        let b = hash64(0x6174_7269_756d_0002, key);
+        self.dir.join(format!("{kind}-{a:016x}{b:016x}.bin"))
+    }
+
+    fn full_key(kind: &str, key: &[u8]) -> Vec<u8> {
+        let mut k = format!(
+            "atrium disk cache {FORMAT_VERSION}\n{kind}\n{}\n",
+            exe_identity()
+        )
+        .into_bytes();
+        k.extend_from_slice(key);
+        k
+    }
+
+    /// The payload stored under `kind` and `key`, if a whole, matching entry is there.
+    pub fn get(&self, kind: &str, key: &[u8]) -> Option<Vec<u8>> {
+        let bytes = std::fs::read(self.entry_path(kind, key)).ok()?;
+        let full = Self::full_key(kind, key);
+        decode_entry(&bytes, &full).map(<[u8]>::to_vec)
+    }
+
+    /// Stores `payload` under `kind` and `key` (temporary file, fsync, rename).
+    pub fn put(&self, kind: &str, key: &[u8], payload: &[u8]) -> std::io::Result<()> {
+        std::fs::create_dir_all(&self.dir)?;
+        let path = self.entry_path(kind, key);
+        let full = Self::full_key(kind, key);
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("entry");
+        let tmp = self.dir.join(format!(
+            ".{name}.{}-{}-{nanos}.tmp",
+            std::process::id(),
+            COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
+        let result = (|| {
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&tmp)?;
+            f.write_all(&encode_entry(&full, payload))?;
+            f.sync_all()?;
+            drop(f);
+            std::fs::rename(&tmp, &path)?;
+            // Best effort: the rename itself durable.
+            if let Ok(d) = std::fs::File::open(&self.dir) {
+                let _ = d.sync_all();
+            }
+            Ok(())
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result
+    }
+
+    /// The cached value of `kind` under `key`, or `build()`'s, stored for later processes.
+    /// An entry that does not decode is rebuilt and overwritten.
+    pub fn get_or_build<T, E>(
+        &self,
+        kind: &str,
+        key: &[u8],
+        build: impl FnOnce() -> Result<T, E>,
+        encode: impl FnOnce(&T) -> Vec<u8>,
+        decode: impl FnOnce(&[u8]) -> Option<T>,
+    ) -> Result<T, E> {
+        if let Some(v) = self.get(kind, key).and_then(|p| decode(&p)) {
+            return Ok(v);
+        }
+        let v = build()?;
+        // A cache that cannot be written costs a rebuild next time, not the run.
+        let _ = self.put(kind, key, &encode(&v));
+        Ok(v)
+    }
+}
+
+/// [`DiskCache::get_or_build`] on the process's cache, or `build()` when it is off.
+pub fn cached<T, E>(
+    kind: &str,
+    key: &[u8],
+    build: impl FnOnce() -> Result<T, E>,
+    encode: impl FnOnce(&T) -> Vec<u8>,
+    decode: impl FnOnce(&[u8]) -> Option<T>,
+) -> Result<T, E> {
+    match DiskCache::global() {
+        Some(c) => c.get_or_build(kind, key, build, encode, decode),
+        None => build(),
+    }
+}
+
+fn encode_entry(key: &[u8], payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(HEADER + key.len() + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(key.len() as u64).to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&hash64(0, payload).to_le_bytes());
+    out.extend_from_slice(key);
+    out.extend_from_slice(payload);
+    out
+}
+
+/// The payload of a whole entry written under `key`; `None` for anything else.
+fn decode_entry<'a>(bytes: &'a [u8], key: &[u8]) -> Option<&'a [u8]> {
+    let mut r = Reader::new(bytes);
+    if r.take(8)? != MAGIC || r.u32()? != FORMAT_VERSION {
+        return None;
+    }
+    let key_len = usize::try_from(r.u64()?).ok()?;
+    let payload_len = usize::try_from(r.u64()?).ok()?;
+    let checksum = r.u64()?;
+    if r.remaining() != key_len.checked_add(payload_len)? || r.take(key_len)? != key {
+        return None;
+    }
+    let payload = r.take(payload_len)?;
+    (hash64(0, payload) == checksum).then_some(payload)
+}
+
+/// Little-endian writer for payloads.
+#[derive(Default)]
+pub struct Writer(pub Vec<u8>);
+
+impl Writer {
+    pub fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
+    }
+    pub fn f64s(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        for x in v {
+            self.f64(*x);
+        }
+    }
+    pub fn str(&mut self, s: &str) {
+        self.bytes(s.as_bytes());
+    }
+    pub fn bytes(&mut self, b: &[u8]) {
+        self.u64(b.len() as u64);
+        self.0.extend_from_slice(b);
+    }
+}
+
+/// Little-endian reader for payloads: every read checks the length (`None` past the end).
+pub struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    pub fn new(bytes: &'a [u8]) -> Reader<'a> {
+        Reader { bytes, at: 0 }
+    }
+    pub fn remaining(&self) -> usize {
+        self.bytes.len() - self.at
+    }
+    pub fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.bytes.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    pub fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    pub fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    /// A count of items of at least `item_bytes` each, refused if the rest cannot hold them.
+    pub fn len(&mut self, item_bytes: usize) -> Option<usize> {
+        let n = usize::try_from(self.u64()?).ok()?;
+        (n.checked_mul(item_bytes.max(1))? <= self.remaining()).then_some(n)
+    }
+    pub fn f64(&mut self) -> Option<f64> {
+        Some(f64::from_bits(self.u64()?))
+    }
+    pub fn f64s(&mut self) -> Option<Vec<f64>> {
+        let n = self.len(8)?;
+        (0..n).map(|_| self.f64()).collect()
+    }
+    pub fn bytes(&mut self) -> Option<&'a [u8]> {
+        let n = self.len(1)?;
+        self.take(n)
+    }
+    pub fn str(&mut self) -> Option<String> {
+        String::from_utf8(self.bytes()?.to_vec()).ok()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.remaining() == 0
+    }
+}
+
+/// Longest string parameter taken for a file name.
+const MAX_NAME: usize = 4096;
+
+/// Key text of everything a run of `scenario` reads: the texts of its files (scenario,
+/// world, robot, sensor file), the parsed world (a generated world's parameters included),
+/// robot and WiFi scanner, and every file a localizer's string parameter names beside the
+/// scenario (a survey, a training scenario, a saved graph or error map), a scenario among
+/// them with its own inputs, recursively. Paths are left out: a moved checkout still hits.
+pub fn scenario_inputs(scenario: &Scenario) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut seen = BTreeSet::new();
+    add_scenario(scenario, &mut out, &mut seen);
+    out
+}
+
+fn add_file(path: &Path, out: &mut Vec<u8>) {
+    let mut w = Writer(std::mem::take(out));
+    match std::fs::read(path) {
+        Ok(b) => {
+            w.str("file");
+            w.bytes(&b);
+        }
+        Err(_) => w.str("unreadable file"),
+    }
+    *out = w.0;
+}
+
+fn add_scenario(scenario: &Scenario, out: &mut Vec<u8>, seen: &mut BTreeSet<PathBuf>) {
+    for f in &scenario.input_files {
+        add_file(f, out);
+    }
+    let mut w = Writer(std::mem::take(out));
+    w.str(&serde_json::to_string(&scenario.world).unwrap_or_default());
+    w.str(&format!("{:?}", scenario.robot));
+    w.str(&format!("{:?}", scenario.wifi));
+    w.str(&format!("{:?}", scenario.world_params));
+    *out = w.0;
+    let dir = scenario.file.parent().unwrap_or(Path::new("."));
+    for spec in &scenario.localizers {
+        for s in strings(&toml::Value::Table(spec.params.clone())) {
+            if s.is_empty() || s.len() > MAX_NAME || s.contains('\0') {
+                continue;
+            }
+            let p = dir.join(s);
+            if !p.is_file() {
+                continue;
+            }
+            add_file(&p, out);
+            let canon = p.canonicalize().unwrap_or(p.clone());
+            if p.extension().is_some_and(|e| e == "toml") && seen.insert(canon) {
+                if let Ok(sub) = Scenario::load(&p) {
+                    add_scenario(&sub, out, seen);
+                }
+            }
+        }
+    }
+}
+
+/// Every string in `v` (tables and arrays searched).
+fn strings(v: &toml::Value) -> Vec<&str> {
+    match v {
+        toml::Value::String(s) => vec![s.as_str()],
+        toml::Value::Array(a) => a.iter().flat_map(strings).collect(),
+        toml::Value::Table(t) => t.values().flat_map(strings).collect(),
+        _ => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!(
+            "atrium-disk-cache-{tag}-{}-{}",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos())
+        ));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn round_trip_and_key_mismatch_is_a_miss() {
+        let dir = temp_dir("round");
+        let c = DiskCache::at(&dir);
+        assert_eq!(c.get("t", b"key"), None);
+        c.put("t", b"key", b"payload bytes").unwrap();
+        assert_eq!(c.get("t", b"key").unwrap(), b"payload bytes");
+        assert_eq!(c.get("t", b"other key"), None);
+        assert_eq!(c.get("u", b"key"), None);
+        // No temporary file is left behind.
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(names.len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn corrupt_or_truncated_entries_are_rebuilt() {
+        let dir = temp_dir("corrupt");
+        let c = DiskCache::at(&dir);
+        let payload: Vec<u8> = (0..1000u32).flat_map(|i| i.to_le_bytes()).collect();
+        c.put("t", b"k", &payload).unwrap();
+        let path = c.entry_path("t", b"k");
+        let good = std::fs::read(&path).unwrap();
+        // A flipped payload bit, a truncation, an appended byte, an empty file.
+        let mut flipped = good.clone();
+        *flipped.last_mut().unwrap() ^= 1;
+        let mut longer = good.clone();
+        longer.push(0);
+        for bad in [flipped, good[..good.len() - 3].to_vec(), longer, Vec::new()] {
+            std::fs::write(&path, &bad).unwrap();
+            assert_eq!(c.get("t", b"k"), None);
+            let mut built = 0;
+            let v: Result<Vec<u8>, ()> = c.get_or_build(
+                "t",
+                b"k",
+                || {
+                    built += 1;
+                    Ok(payload.clone())
+                },
+                |v| v.clone(),
+                |b| Some(b.to_vec()),
+            );
+            assert_eq!(v.unwrap(), payload);
+            assert_eq!(built, 1);
+            assert_eq!(std::fs::read(&path).unwrap(), good, "rewritten whole");
+        }
+        // A payload that does not decode is rebuilt too.
+        let mut built = 0;
+        let v: Result<u8, ()> = c.get_or_build(
+            "t",
+            b"k",
+            || {
+                built += 1;
+                Ok(7)
+            },
+            |v| vec![*v],
+            |b| (b.len() == 1).then(|| b[0]),
+        );
+        assert_eq!((v.unwrap(), built), (7, 1));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn concurrent_writers_leave_one_whole_entry() {
+        let dir = temp_dir("concurrent");
+        let payload: Vec<u8> = (0..200_000u32).map(|i| (i % 251) as u8).collect();
+        std::thread::scope(|s| {
+            for _ in 0..8 {
+                s.spawn(|| {
+                    let c = DiskCache::at(&dir);
+                    for _ in 0..5 {
+                        c.put("t", b"shared", &payload).unwrap();
+                        // Whatever a reader sees is whole.
+                        if let Some(p) = c.get("t", b"shared") {
+                            assert_eq!(p, payload);
+                        }
+                    }
+                });
+            }
+        });
+        assert_eq!(DiskCache::at(&dir).get("t", b"shared").unwrap(), payload);
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reader_refuses_lengths_past_the_end() {
+        let mut w = Writer::default();
+        w.u64(u64::MAX);
+        assert_eq!(Reader::new(&w.0).f64s(), None);
+        let mut w = Writer::default();
+        w.f64s(&[1.0, -0.0, f64::NAN]);
+        let back = Reader::new(&w.0).f64s().unwrap();
+        assert_eq!(back[0], 1.0);
+        assert!(back[1].is_sign_negative() && back[2].is_nan());
+    }
+
+    #[test]
+    fn inputs_include_named_files_recursively() {
+        let path = crate::bundled_scenarios_dir().join("tour.toml");
+        let s = Scenario::load(&path).unwrap();
+        let inputs = scenario_inputs(&s);
+        let survey =
+            std::fs::read(crate::bundled_scenarios_dir().join("wifi_survey.toml")).unwrap();
+        let has = |needle: &[u8]| inputs.windows(needle.len()).any(|w| w == needle);
+        assert!(has(&survey), "the survey the wifi localizer names");
+        assert!(has(s.text.as_bytes()));
+    }
+}
