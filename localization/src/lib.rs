@@ -2,6 +2,7 @@
 
 pub mod appearance;
 pub mod appearance_apf;
+pub mod beam_model;
 pub mod ceiling_mcl;
 pub mod cgr;
 pub mod chooser;
