@@ -142,6 +142,20 @@ pub trait ReadingStream {
     /// and its node controller takes the localizer's `pose` after the reset; a recording
     /// already holds what happened.
     fn verify_node(&mut self, _node: usize, _pose: Pose2) {}
+    /// The pedestrians at the current instant, when the stream has any (a live run with
+    /// `[people]`; recordings replay readings, not people).
+    fn people(&self) -> Option<PeopleFrame<'_>> {
+        None
+    }
+}
+
+/// Where the pedestrians are at one instant, for observers that draw them.
+#[derive(Debug, Clone, Copy)]
+pub struct PeopleFrame<'a> {
+    /// Centres of the people's discs on the floor, world frame, m.
+    pub positions: &'a [[f64; 2]],
+    pub radius: f64,
+    pub height: f64,
 }
 
 /// Watches a run as it is consumed (the MCAP recorder is one). Called once per instant after
@@ -153,6 +167,10 @@ pub trait RunObserver {
         readings: &[Reading],
         estimates: Option<&[Estimate]>,
     ) -> Result<(), ScenarioError>;
+    /// Called after [`RunObserver::instant`] at every instant of a run with people.
+    fn people(&mut self, _tick: &Tick, _people: &PeopleFrame<'_>) -> Result<(), ScenarioError> {
+        Ok(())
+    }
 }
 
 /// The live stream: the scenario's simulation, stepped at `physics_hz`, its events applied on
@@ -283,6 +301,14 @@ impl ReadingStream for SimStream<'_> {
         self.sim.verify_node(node, Some(pose));
     }
 
+    fn people(&self) -> Option<PeopleFrame<'_>> {
+        self.sim.people().map(|p| PeopleFrame {
+            positions: p.positions(),
+            radius: p.params().radius,
+            height: p.params().height,
+        })
+    }
+
     fn summary(&self) -> StreamSummary {
         StreamSummary {
             sim_time_s: self.sim.time(),
@@ -406,6 +432,9 @@ pub fn run_localizers(
         };
         if let Some(obs) = options.observer.as_mut() {
             obs.instant(&tick, &readings, scored.then_some(estimates.as_slice()))?;
+            if let Some(people) = stream.people() {
+                obs.people(&tick, &people)?;
+            }
         }
     }
     let summary = stream.summary();

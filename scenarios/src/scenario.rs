@@ -32,6 +32,10 @@ struct ScenarioFile {
     route: RouteFile,
     #[serde(default)]
     controller: Option<toml::Table>,
+    /// `[people]`: pedestrians (`density` per 100 m² of free floor, `speed`, `radius`,
+    /// `height`; see `atrium_sim::PeopleParams`). None by default.
+    #[serde(default)]
+    people: Option<toml::Table>,
     #[serde(default)]
     sensors: Option<toml::Table>,
     #[serde(default)]
@@ -231,6 +235,8 @@ pub struct Scenario {
     /// drawn from the run's seed (`crate::route_jitter`). 0 by default.
     pub route_jitter: f64,
     pub controller: atrium_sim::ControllerParams,
+    /// Pedestrians (density 0: none).
+    pub people: atrium_sim::PeopleParams,
     pub odometry: OdometrySpec,
     pub lasers: Vec<LaserSpec>,
     /// Depth cameras (from `[depth_cameras.<name>]`, e.g. `preset = "kinect"`,
@@ -727,6 +733,14 @@ impl Scenario {
         controller
             .validate()
             .map_err(|e| ScenarioError::field(file, "controller", e.to_string()))?;
+        let people = match &raw.people {
+            Some(t) => apply_overrides(&atrium_sim::PeopleParams::default(), t, file, "people")?,
+            None => atrium_sim::PeopleParams::default(),
+        };
+        people.validate().map_err(|e| match e {
+            atrium_sim::SimError::Config { field, msg } => ScenarioError::field(file, field, msg),
+            other => ScenarioError::field(file, "people", other.to_string()),
+        })?;
         for (key, v, limit) in [
             ("max_speed", controller.max_speed, MAX_SPEED_M_S),
             ("max_turn_rate", controller.max_turn_rate, MAX_TURN_RATE),
@@ -1086,6 +1100,7 @@ impl Scenario {
             settle_s: raw.route.settle_s,
             route_jitter: raw.route.jitter,
             controller,
+            people,
             odometry,
             lasers,
             depth_cameras,
@@ -1123,6 +1138,7 @@ impl Scenario {
             landmark_detectors: self.landmark_detectors.clone(),
             depth_cameras: self.depth_cameras.clone(),
             cameras: self.cameras.clone(),
+            people: self.people,
             ..atrium_sim::SimConfig::default()
         }
     }

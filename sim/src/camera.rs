@@ -440,7 +440,7 @@ pub fn render_radiance(
     let opaque = |_: ColliderHandle, co: &Collider| {
         matches!(scene.laser_surface(co.user_data), LaserSurface::Opaque)
     };
-    let mut filter = QueryFilter::default().groups(Scene::static_groups());
+    let mut filter = QueryFilter::default().groups(Scene::sensor_groups());
     if shader.any_glass {
         filter = filter.predicate(&opaque);
     }

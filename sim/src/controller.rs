@@ -79,6 +79,46 @@ pub struct WaypointFollower {
     /// Current (rate-limited) body velocity command.
     v: f64,
     omega: f64,
+    /// Something is in the way ahead ([`LookAhead`]): brake to a stop, turning in place is
+    /// still allowed.
+    blocked: bool,
+}
+
+/// Gap kept between the robot's front and a person ahead once stopped, m.
+pub const PERSON_STOP_GAP: f64 = 0.5;
+/// Extra width on each side of the driving corridor, m.
+pub const CORRIDOR_SIDE_MARGIN: f64 = 0.1;
+
+/// The robot's driving corridor ahead: as wide as its footprint plus a margin each side, as
+/// long as its braking distance plus [`PERSON_STOP_GAP`] beyond its front.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LookAhead {
+    /// Front of the footprint ahead of the base origin, m.
+    pub front: f64,
+    /// Half the footprint's width, m.
+    pub half_width: f64,
+}
+
+impl LookAhead {
+    /// Whether a disc of `radius` at one of `centres` (world frame) lies in the corridor ahead
+    /// of a robot at `pose` driving at `v` m/s that brakes at `max_accel`.
+    pub fn blocked(
+        &self,
+        pose: &Pose2,
+        v: f64,
+        max_accel: f64,
+        centres: &[[f64; 2]],
+        radius: f64,
+    ) -> bool {
+        let reach = self.front + PERSON_STOP_GAP + radius + v.max(0.0).powi(2) / (2.0 * max_accel);
+        let half = self.half_width + CORRIDOR_SIDE_MARGIN + radius;
+        let (s, c) = pose.theta.sin_cos();
+        centres.iter().any(|p| {
+            let (dx, dy) = (p[0] - pose.x, p[1] - pose.y);
+            let (x, y) = (c * dx + s * dy, -s * dx + c * dy);
+            x > 0.0 && x < reach && y.abs() < half
+        })
+    }
 }
 
 impl WaypointFollower {
@@ -96,6 +136,7 @@ impl WaypointFollower {
             turning: false,
             v: 0.0,
             omega: 0.0,
+            blocked: false,
         })
     }
 
@@ -124,6 +165,16 @@ impl WaypointFollower {
     /// The current rate-limited body velocity command (v m/s, ω rad/s).
     pub fn command(&self) -> (f64, f64) {
         (self.v, self.omega)
+    }
+
+    /// Holds the robot (brakes to a stop, still turns in place) while `blocked`; see
+    /// [`LookAhead`].
+    pub fn set_blocked(&mut self, blocked: bool) {
+        self.blocked = blocked;
+    }
+
+    pub fn blocked(&self) -> bool {
+        self.blocked
     }
 
     /// Forgets the current velocity (after the robot was picked up and put down).
@@ -192,7 +243,7 @@ impl WaypointFollower {
                 .min((2.0 * p.max_turn_accel * err.abs()).sqrt())
                 .min(p.max_turn_rate);
             let w_des = w_mag.copysign(err);
-            if self.turning {
+            if self.turning || self.blocked {
                 (0.0, w_des)
             } else {
                 // Aim to stop (or slow to the pass speed) half a tolerance before the
@@ -350,5 +401,41 @@ mod tests {
         for c in closest {
             assert!(c < 0.1, "{closest:?}");
         }
+    }
+
+    #[test]
+    fn a_person_in_the_corridor_ahead_stops_the_robot_until_clear() {
+        let look = LookAhead {
+            front: 0.3,
+            half_width: 0.2,
+        };
+        let pose = Pose2::new(0.0, 0.0, 0.0);
+        let r = 0.25;
+        // Ahead within gap + radius of the front, beside within the widened corridor.
+        assert!(look.blocked(&pose, 0.0, 0.5, &[[1.0, 0.0]], r));
+        assert!(look.blocked(&pose, 0.0, 0.5, &[[1.0, 0.5]], r));
+        assert!(!look.blocked(&pose, 0.0, 0.5, &[[1.0, 0.6]], r));
+        assert!(!look.blocked(&pose, 0.0, 0.5, &[[-1.0, 0.0]], r));
+        assert!(!look.blocked(&pose, 0.0, 0.5, &[[1.2, 0.0]], r));
+        // At speed the corridor grows by the braking distance (0.25 m at 0.5 m/s, 0.5 m/s²).
+        assert!(look.blocked(&pose, 0.5, 0.5, &[[1.2, 0.0]], r));
+
+        let mut f = WaypointFollower::new(ControllerParams::default(), drive()).unwrap();
+        f.set_route(&[[10.0, 0.0]]);
+        let dt = 0.01;
+        for _ in 0..300 {
+            f.update(&pose, dt);
+        }
+        assert!((f.command().0 - 0.5).abs() < 1e-9);
+        f.set_blocked(true);
+        for _ in 0..100 {
+            f.update(&pose, dt);
+        }
+        assert_eq!(f.command().0, 0.0, "braked within v / max_accel = 1 s");
+        f.set_blocked(false);
+        for _ in 0..100 {
+            f.update(&pose, dt);
+        }
+        assert!(f.command().0 > 0.4, "{:?}", f.command());
     }
 }

@@ -101,7 +101,7 @@ impl DepthCamera {
     /// buffer: the depth along the optical axis, or 0 where the camera returns nothing.
     pub fn cast(&mut self, scene: &Scene, base: &Pose) {
         let cam = *base * self.mount;
-        let filter = QueryFilter::default().groups(Scene::static_groups());
+        let filter = QueryFilter::default().groups(Scene::sensor_groups());
         let query = scene.physics.query_pipeline_with_filter(filter);
         let (lo, hi) = (self.spec.range_min as f32, self.spec.range_max as f32);
         for ((t, d), &c) in self.truth.iter_mut().zip(&self.dirs).zip(&self.axial) {

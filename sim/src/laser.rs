@@ -23,7 +23,7 @@ const MAX_PASS_THROUGH: usize = 16;
 /// past that collider.
 pub fn cast_beam(scene: &Scene, origin: Vector, dir: Vector, max_range: f32) -> Option<f32> {
     let ray = Ray::new(origin, dir);
-    let groups = Scene::static_groups();
+    let groups = Scene::sensor_groups();
     let mut passed = [ColliderHandle::invalid(); MAX_PASS_THROUGH];
     let mut n = 0;
     loop {

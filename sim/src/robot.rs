@@ -420,6 +420,20 @@ impl RobotBodies {
         Ok(robot)
     }
 
+    /// The planar bounding box of every robot collider in the base frame, m: (min, max)
+    /// corners. People keep clear of it and the controller's look-ahead starts at its front.
+    pub fn footprint_box(&self) -> ([f64; 2], [f64; 2]) {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (pose, shape) in &self.footprint {
+            let aabb = shape.compute_aabb(pose);
+            for k in 0..2 {
+                lo[k] = lo[k].min(aabb.mins[k] as f64);
+                hi[k] = hi[k].max(aabb.maxs[k] as f64);
+            }
+        }
+        (lo, hi)
+    }
+
     /// The first wall or pillar the robot would overlap with its base at `pose`.
     pub fn first_overlap(&mut self, scene: &Scene, pose: &Pose2) -> Option<(String, String)> {
         let base = pose3(pose, self.base_z);

@@ -14,8 +14,14 @@ pub const ROBOT_GROUP: Group = Group::GROUP_2;
 /// Collision group of walls, pillars and the ceiling. Separate from the floor so a wheel can
 /// meet the floor with one collider and walls with another (see `robot.rs`).
 pub const WALL_GROUP: Group = Group::GROUP_3;
-/// Everything static: what sensor rays see.
+/// Everything static.
 pub const STATIC_GROUP: Group = FLOOR_GROUP.union(WALL_GROUP);
+/// Collision group of people (`people.rs`): kinematic, seen by sensor rays, touching nothing
+/// (the robot filters on [`STATIC_GROUP`] only, so it never collides with a person).
+pub const PEOPLE_GROUP: Group = Group::GROUP_4;
+/// What sensor rays see: the static world and people. Without people in the scene this
+/// filter selects exactly the colliders [`STATIC_GROUP`] did, at the same cost.
+pub const SENSED_GROUP: Group = STATIC_GROUP.union(PEOPLE_GROUP);
 
 /// Margin of floor around the world's walls, m: the robot must never drive off the edge.
 const FLOOR_MARGIN: f64 = 50.0;
@@ -330,6 +336,11 @@ impl Scene {
     /// Sensor-ray filter: static colliders only.
     pub fn static_groups() -> InteractionGroups {
         InteractionGroups::new(Group::ALL, STATIC_GROUP, InteractionTestMode::And)
+    }
+
+    /// Sensor-ray filter: static colliders and people (never the robot).
+    pub fn sensor_groups() -> InteractionGroups {
+        InteractionGroups::new(Group::ALL, SENSED_GROUP, InteractionTestMode::And)
     }
 
     /// The first wall or pillar that one of `shapes` (poses in the world frame) overlaps,

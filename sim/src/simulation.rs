@@ -36,6 +36,9 @@ pub struct SimConfig {
     /// Intensity cameras and stereo rigs with the lighting they see (`camera_stream.rs`);
     /// none by default, and then nothing is rendered.
     pub cameras: crate::camera_stream::CameraSensors,
+    /// Pedestrians (`people.rs`); density 0 by default, and then the scene, the random
+    /// streams and every reading are exactly those of a run without the feature.
+    pub people: crate::people::PeopleParams,
 }
 
 impl Default for SimConfig {
@@ -51,6 +54,7 @@ impl Default for SimConfig {
             landmark_detectors: Vec::new(),
             depth_cameras: Vec::new(),
             cameras: Default::default(),
+            people: Default::default(),
         }
     }
 }
@@ -63,6 +67,8 @@ const STREAM_WIFI: u64 = 0x6000;
 const STREAM_LANDMARKS: u64 = 0x3000;
 const STREAM_DEPTH: u64 = 0x4000;
 const STREAM_DEPTH_PROBE: u64 = 0x5000;
+/// People's goals and starts (camera streams take 0x7000..0xb000).
+const STREAM_PEOPLE: u64 = 0xb000;
 
 fn stream(seed: u64, id: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -140,6 +146,10 @@ pub struct Simulation {
     depth_cameras: Vec<(crate::depth::DepthCamera, Schedule, ChaCha8Rng)>,
     /// Intensity cameras and stereo rigs (after the depth cameras in each step's output).
     cameras: Option<crate::camera_stream::CameraStream>,
+    /// Pedestrians, when the density is above 0, and the robot's corridor ahead that they
+    /// may block.
+    people: Option<crate::people::People>,
+    look_ahead: crate::controller::LookAhead,
 }
 
 impl Simulation {
@@ -224,6 +234,25 @@ impl Simulation {
 
         let mut scene = Scene::new(world, hz)?;
         let robot_bodies = RobotBodies::spawn(&mut scene, robot, config.start)?;
+        config.people.validate()?;
+        let footprint = robot_bodies.footprint_box();
+        let look_ahead = crate::controller::LookAhead {
+            front: footprint.1[0],
+            half_width: footprint.1[1].max(-footprint.0[1]),
+        };
+        // Bodies join the scene after the robot's, so its handles never depend on people.
+        let people = if config.people.density > 0.0 {
+            Some(crate::people::People::new(
+                world,
+                &mut scene,
+                config.people,
+                config.start,
+                footprint,
+                stream(config.seed, STREAM_PEOPLE),
+            )?)
+        } else {
+            None
+        };
         let cameras = crate::camera_stream::CameraStream::new(
             world,
             &scene,
@@ -256,6 +285,8 @@ impl Simulation {
             landmark_detectors,
             depth_cameras,
             cameras,
+            people,
+            look_ahead,
         })
     }
 
@@ -286,6 +317,18 @@ impl Simulation {
     /// Returns the ground-truth pose.
     pub fn step(&mut self, out: &mut Vec<Reading>) -> Pose2 {
         let dt = 1.0 / self.physics_hz;
+        if let Some(people) = &mut self.people {
+            people.step(&mut self.scene.physics, &self.truth, dt);
+            let (v, _) = self.follower.command();
+            let blocked = self.look_ahead.blocked(
+                &self.truth,
+                v,
+                self.follower.params().max_accel,
+                people.positions(),
+                people.params().radius,
+            );
+            self.follower.set_blocked(blocked);
+        }
         let (wl, wr) = match (self.manual, &mut self.node_controller) {
             (Some(w), _) => w,
             (None, Some(nodes)) => nodes.update(dt),
@@ -543,6 +586,16 @@ impl Simulation {
 
     pub fn robot_bodies(&self) -> &RobotBodies {
         &self.robot
+    }
+
+    /// The pedestrians, when the run has any.
+    pub fn people(&self) -> Option<&crate::people::People> {
+        self.people.as_ref()
+    }
+
+    /// Whether the waypoint follower is holding for something in its way.
+    pub fn blocked(&self) -> bool {
+        self.follower.blocked()
     }
 }
 

@@ -19,6 +19,7 @@
 //! | `/estimate/<localizer>` | `foxglove.PoseInFrame` | each localizer's estimate at each scoring instant |
 //! | `/tf` | `foxglove.FrameTransforms` | URDF links from the base link (once), `odom -> base` and `map -> odom` at each odometry reading |
 //! | `/scene` | `foxglove.SceneUpdate` | walls (glass translucent), pillars, access points, in `map` |
+//! | `/people` | `foxglove.SceneUpdate` | pedestrians (`[people]`), a cylinder entity `person/<i>` each, 10 Hz, in `map` (Foxglove profile only) |
 //! | `/atrium/events` | `atrium.Event` | events as they took effect (kidnapping) |
 //!
 //! Metadata `atrium`: `atrium_version`, `seed`, `scenario` (the file's text),
@@ -56,6 +57,7 @@ pub mod topics {
     pub const EVENTS: &str = "/atrium/events";
     pub const TF: &str = "/tf";
     pub const SCENE: &str = "/scene";
+    pub const PEOPLE: &str = "/people";
     pub const MAP_FRAME: &str = "map";
     pub const ODOM_FRAME: &str = "odom";
 }

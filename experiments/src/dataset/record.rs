@@ -11,12 +11,12 @@
 //! so a bad `-o` costs nothing; every write error names the final output.
 
 use super::codec::{self, json_schemas, ns_of};
-use super::scene::{robot_transforms, scene_update};
+use super::scene::{people_update, robot_transforms, scene_update};
 use super::topics;
 use atrium_localization::Estimate;
 use atrium_robots::{Pose2, Reading};
 use atrium_scenarios::error::ScenarioError;
-use atrium_scenarios::runner::{RunObserver, RunOptions, RunResult, SimStream, Tick};
+use atrium_scenarios::runner::{PeopleFrame, RunObserver, RunOptions, RunResult, SimStream, Tick};
 use atrium_scenarios::scenario::{Event, Scenario};
 use atrium_scenarios::LocalizerRegistry;
 use foxglove::messages as fg;
@@ -100,7 +100,13 @@ pub struct Recorder {
     robot: atrium_robots::RobotModel,
     started: bool,
     messages: u64,
+    /// When the next `/people` update is due, ns.
+    next_people_ns: u64,
 }
+
+/// `/people` updates per second of sim time: smooth enough to watch, a small share of the
+/// file.
+const PEOPLE_HZ: u64 = 10;
 
 /// A failure to write the recording, named by its final path (never the partial one: that
 /// is an implementation detail, and never "read": nothing is read here).
@@ -227,6 +233,7 @@ impl Recorder {
             robot: scenario.robot.clone(),
             started: false,
             messages: 0,
+            next_people_ns: 0,
         })
     }
 
@@ -638,6 +645,17 @@ impl RunObserver for Recorder {
             }
         }
         Ok(())
+    }
+
+    fn people(&mut self, tick: &Tick, people: &PeopleFrame<'_>) -> Result<(), ScenarioError> {
+        let ns = ns_of(tick.t);
+        if ns < self.next_people_ns {
+            return Ok(());
+        }
+        self.next_people_ns = ns + 1_000_000_000 / PEOPLE_HZ;
+        let update = people_update(people, topics::MAP_FRAME, ns);
+        let ch = self.channel(topics::PEOPLE, self.schemas.scene, BTreeMap::new)?;
+        self.put_proto(ch, ns, &update)
     }
 }
 

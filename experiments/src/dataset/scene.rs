@@ -32,6 +32,13 @@ const FURNITURE: fg::Color = fg::Color {
     b: 0.28,
     a: 1.0,
 };
+/// People: a saturated magenta that no world material uses.
+const PERSON: fg::Color = fg::Color {
+    r: 0.85,
+    g: 0.20,
+    b: 0.60,
+    a: 1.0,
+};
 const ACCESS_POINT: fg::Color = fg::Color {
     r: 0.95,
     g: 0.45,
@@ -53,6 +60,40 @@ fn entity(ns: u64, frame: &str, id: &str) -> fg::SceneEntity {
         id: id.to_string(),
         frame_locked: true,
         ..Default::default()
+    }
+}
+
+/// The pedestrians at one instant in `frame`: one entity per person (`person/<i>`, its index
+/// in the run), a cylinder of the person's size standing on the floor. Each update replaces
+/// the entities of the last by id, so a viewer shows them walking.
+pub fn people_update(
+    people: &atrium_scenarios::runner::PeopleFrame<'_>,
+    frame: &str,
+    ns: u64,
+) -> fg::SceneUpdate {
+    let d = 2.0 * people.radius;
+    let entities = people
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| fg::SceneEntity {
+            cylinders: vec![fg::CylinderPrimitive {
+                pose: Some(pose(p[0], p[1], 0.5 * people.height, 0.0)),
+                size: Some(fg::Vector3 {
+                    x: d,
+                    y: d,
+                    z: people.height,
+                }),
+                bottom_scale: 1.0,
+                top_scale: 1.0,
+                color: Some(PERSON),
+            }],
+            ..entity(ns, frame, &format!("person/{i}"))
+        })
+        .collect();
+    fg::SceneUpdate {
+        deletions: Vec::new(),
+        entities,
     }
 }
 
