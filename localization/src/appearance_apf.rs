@@ -25,17 +25,17 @@
 //! follows odometry instead of jumping to a wrong place.
 
 use crate::appearance::{fuse, AppearanceMap, Component, PoseKernel};
-use crate::ceiling_mcl::sample_initial_belief;
+use crate::cluster::PointEstimate;
 use crate::em_pca::{EmPca, EmPcaParams, ProjectionScratch};
 use crate::error::LocalizationError;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particles::{accumulate_odometry, carried_by_odometry, weighted_mean_covariance};
+use crate::particle_set::ParticleSet;
+use crate::particles::{CarriedEstimate, Rejections};
 use crate::pca::{Pca, PcaMethod};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DisparityImage, IntensityImage, Pose2, Reading};
-use nalgebra::Matrix3;
 use rand::seq::index::sample;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -349,29 +349,18 @@ pub struct AppearanceApf {
     rng: ChaCha8Rng,
     /// log of the outlier component's density: ε / (area · 2π).
     log_outlier: f64,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
+    set: ParticleSet,
     /// Weights of the auxiliary pairs (particle, component or outlier), M × (K + 1).
     pair_w: Vec<f64>,
-    idx: Vec<usize>,
     features: Vec<f64>,
     scratch: ProjectionScratch,
     intensity: Pending,
     disparity: Pending,
     fused: Vec<Component>,
     last_model: Vec<Component>,
-    pending_motion: Pose2,
-    stamp: f64,
-    mean: Pose2,
-    covariance: Matrix3<f64>,
+    carry: CarriedEstimate,
     updates: usize,
-    rejected: usize,
-    last_error: Option<LocalizationError>,
+    rejected: Rejections,
 }
 
 impl AppearanceApf {
@@ -402,39 +391,22 @@ impl AppearanceApf {
             motion: OdometryMotionModel::new(params.alpha),
             rng: ChaCha8Rng::seed_from_u64(seed),
             log_outlier: params.outlier.ln() - (area * 2.0 * std::f64::consts::PI).ln(),
-            x: vec![0.0; m],
-            y: vec![0.0; m],
-            th: vec![0.0; m],
-            w: vec![1.0 / m as f64; m],
-            x2: vec![0.0; m],
-            y2: vec![0.0; m],
-            th2: vec![0.0; m],
+            set: ParticleSet::with_capacity(m),
             pair_w: vec![0.0; m * (k_max + 1)],
-            idx: vec![0; m],
             features: vec![0.0; d],
             scratch: ProjectionScratch::new(d),
             intensity: Pending::new(k_max),
             disparity: Pending::new(k_max),
             fused: Vec::with_capacity(k_max),
             last_model: Vec::with_capacity(k_max),
-            pending_motion: Pose2::default(),
-            stamp: 0.0,
-            mean: Pose2::default(),
-            covariance: Matrix3::zeros(),
+            carry: CarriedEstimate::default(),
             updates: 0,
-            rejected: 0,
-            last_error: None,
+            rejected: Rejections::default(),
             model,
             params,
         };
-        sample_initial_belief(
-            init,
-            [x0, y0, x1, y1],
-            &mut f.rng,
-            &mut f.x,
-            &mut f.y,
-            &mut f.th,
-        )?;
+        f.set
+            .sample_initial_belief(m, init, [x0, y0, x1, y1], &mut f.rng)?;
         f.compute_estimate();
         Ok(f)
     }
@@ -444,7 +416,7 @@ impl AppearanceApf {
     }
 
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.x.len()).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     /// Sensor updates applied so far.
@@ -454,11 +426,11 @@ impl AppearanceApf {
 
     /// Readings refused (wrong size, non-finite pixels) and the last reason.
     pub fn rejected(&self) -> usize {
-        self.rejected
+        self.rejected.count
     }
 
     pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.last_error.as_ref()
+        self.rejected.last.as_ref()
     }
 
     /// The sensor model (eq. 2, fused as §VI when disparity was used) of the last update, for
@@ -529,12 +501,11 @@ impl AppearanceApf {
     /// One auxiliary-particle-filter step with the mixture sensor model `components`
     /// (weights λ summing to one), after the odometry received since the last step.
     pub fn step(&mut self, components: &[Component]) {
-        let m = self.x.len();
+        let m = self.set.len();
         let k = components.len();
         // Odometry as a Gaussian N(m_i, Q): the noiseless composition and the variance
         // Table 5.6's α give to this increment, plus a floor.
-        let p = self.pending_motion;
-        self.pending_motion = Pose2::default();
+        let p = std::mem::take(&mut self.carry.pending);
         let inc = self.motion.decompose(&Pose2::default(), &p);
         let q_xy = inc.sd_trans.powi(2)
             + (inc.trans * inc.sd_rot1).powi(2)
@@ -543,10 +514,8 @@ impl AppearanceApf {
             + inc.sd_rot2.powi(2)
             + self.params.min_motion_sd_theta_deg.to_radians().powi(2);
         for i in 0..m {
-            let mi = Pose2::new(self.x[i], self.y[i], self.th[i]).compose(&p);
-            self.x[i] = mi.x;
-            self.y[i] = mi.y;
-            self.th[i] = mi.theta;
+            let mi = self.set.pose(i).compose(&p);
+            self.set.set_pose(i, mi);
         }
         let r_xy = self.kernel.sigma_xy.powi(2);
         let r_th = self.kernel.sigma_theta.powi(2);
@@ -561,12 +530,13 @@ impl AppearanceApf {
         let pairs = &mut self.pair_w[..m * stride];
         let mut max = f64::NEG_INFINITY;
         for i in 0..m {
-            let lw = self.w[i].ln();
+            let lw = self.set.weights()[i].ln();
+            let mi = self.set.pose(i);
             let row = &mut pairs[i * stride..(i + 1) * stride];
             for (slot, c) in row.iter_mut().zip(components) {
-                let dx = c.pose.x - self.x[i];
-                let dy = c.pose.y - self.y[i];
-                let dt = normalize_angle(c.pose.theta - self.th[i]);
+                let dx = c.pose.x - mi.x;
+                let dy = c.pose.y - mi.y;
+                let dt = normalize_angle(c.pose.theta - mi.theta);
                 let l = lw + log_in + c.weight.max(1e-300).ln() + log_norm
                     - 0.5 * ((dx * dx + dy * dy) / v_xy + dt * dt / v_th);
                 *slot = l;
@@ -579,19 +549,18 @@ impl AppearanceApf {
         for v in pairs.iter_mut() {
             *v = (*v - max).exp();
         }
-        if !low_variance_indices(pairs, &mut self.idx, &mut self.rng) {
+        if !low_variance_indices(pairs, &mut self.set.indices_mut()[..m], &mut self.rng) {
             // Cannot happen with the outlier term; keep the prediction if it does.
-            self.w.fill(1.0 / m as f64);
+            self.set.make_uniform(m);
             self.compute_estimate();
             return;
         }
         // Product of the two Gaussians: S = (Q⁻¹ + R⁻¹)⁻¹, μ = m + S R⁻¹ (x_j − m).
         let s_xy = 1.0 / (1.0 / q_xy + 1.0 / r_xy);
         let s_th = 1.0 / (1.0 / q_th + 1.0 / r_th);
-        for n in 0..m {
-            let flat = self.idx[n];
+        self.set.rebuild(m, &mut self.rng, |flat, src, rng| {
             let (i, j) = (flat / stride, flat % stride);
-            let (mx, my, mt) = (self.x[i], self.y[i], self.th[i]);
+            let [mx, my, mt] = src.get(i);
             let (cx, cy, ct, sxy, sth) = if j < k {
                 let c = &components[j].pose;
                 let gx = s_xy / r_xy;
@@ -606,15 +575,13 @@ impl AppearanceApf {
             } else {
                 (mx, my, mt, q_xy.sqrt(), q_th.sqrt())
             };
-            let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
-            self.x2[n] = cx + sxy * g(&mut self.rng);
-            self.y2[n] = cy + sxy * g(&mut self.rng);
-            self.th2[n] = normalize_angle(ct + sth * g(&mut self.rng));
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.w.fill(1.0 / m as f64);
+            let mut g = || -> f64 { StandardNormal.sample(rng) };
+            [
+                cx + sxy * g(),
+                cy + sxy * g(),
+                normalize_angle(ct + sth * g()),
+            ]
+        });
         self.last_model.clear();
         self.last_model.extend_from_slice(components);
         self.updates += 1;
@@ -669,15 +636,9 @@ impl AppearanceApf {
         }
     }
 
-    fn reject(&mut self, e: LocalizationError) {
-        self.rejected += 1;
-        self.last_error = Some(e);
-    }
-
     fn compute_estimate(&mut self) {
-        let (mean, covariance) = weighted_mean_covariance(&self.x, &self.y, &self.th, &self.w);
-        self.mean = mean;
-        self.covariance = covariance;
+        self.carry
+            .set(self.set.estimate(PointEstimate::WeightedMean));
     }
 }
 
@@ -693,7 +654,7 @@ impl Localizer for AppearanceApf {
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
         // Time moved past a frame whose partner never came: use it alone.
         self.flush_older_than(delta.stamp);
-        accumulate_odometry(&mut self.pending_motion, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -715,10 +676,10 @@ impl Localizer for AppearanceApf {
                 self.intensity.components = comps;
                 match r {
                     Ok(()) => {
-                        self.stamp = self.stamp.max(img.stamp);
+                        self.carry.observed_at(img.stamp);
                         self.observe(img.stamp, false);
                     }
-                    Err(e) => self.reject(e),
+                    Err(e) => self.rejected.record(e),
                 }
             }
             Reading::Disparity(map)
@@ -731,11 +692,11 @@ impl Localizer for AppearanceApf {
                 self.disparity.components = comps;
                 match r {
                     Ok(true) => {
-                        self.stamp = self.stamp.max(map.stamp);
+                        self.carry.observed_at(map.stamp);
                         self.observe(map.stamp, true);
                     }
                     Ok(false) => {}
-                    Err(e) => self.reject(e),
+                    Err(e) => self.rejected.record(e),
                 }
             }
             _ => {}
@@ -744,12 +705,7 @@ impl Localizer for AppearanceApf {
     }
 
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(
-            &self.mean,
-            &self.covariance,
-            &self.pending_motion,
-            self.stamp,
-        )
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {

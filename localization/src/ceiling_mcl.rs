@@ -11,98 +11,19 @@
 //! particles, and the likelihood has an outlier floor so that one odd reading cannot wipe out
 //! the right hypothesis.
 
+use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particles::{
-    accumulate_odometry, carried_by_odometry, effective_sample_size, move_by_pending_odometry,
-    normalize_weights, resample_columns, weighted_mean_covariance,
-};
-use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
-use atrium_worlds::geometry::point_in_polygon;
-use nalgebra::Matrix3;
-use rand::{Rng, SeedableRng};
+use crate::particle_set::ParticleSet;
+use crate::particles::{CarriedEstimate, Rejections};
+use crate::resampling::ResamplePolicy;
+use atrium_robots::{IntensityImage, Pose2, Reading};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-
-/// Fills `x`, `y`, `th` (all of one length) from an initial belief: Gaussian around a pose,
-/// or uniform over the polygons (rejection inside their bounding box), or uniform over
-/// `extent` (x0, y0, x1, y1) when there are none; uniform heading for a global belief.
-pub(crate) fn sample_initial_belief(
-    init: &InitialBelief,
-    extent: [f64; 4],
-    rng: &mut ChaCha8Rng,
-    x: &mut [f64],
-    y: &mut [f64],
-    th: &mut [f64],
-) -> Result<(), LocalizationError> {
-    let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
-    match init {
-        InitialBelief::Tracking { pose, sigma } => {
-            if !pose.is_finite() || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
-                return Err(LocalizationError::InvalidInitialBelief {
-                    field: "pose",
-                    reason: format!("pose and sigma must be finite, got {pose:?} {sigma:?}"),
-                });
-            }
-            for i in 0..x.len() {
-                x[i] = pose.x + sigma[0] * g(rng);
-                y[i] = pose.y + sigma[1] * g(rng);
-                th[i] = normalize_angle(pose.theta + sigma[2] * g(rng));
-            }
-        }
-        InitialBelief::Global { regions } => {
-            let mut b = extent;
-            if !regions.is_empty() {
-                b = [
-                    f64::INFINITY,
-                    f64::INFINITY,
-                    f64::NEG_INFINITY,
-                    f64::NEG_INFINITY,
-                ];
-                for p in regions.iter().flatten() {
-                    b = [
-                        b[0].min(p[0]),
-                        b[1].min(p[1]),
-                        b[2].max(p[0]),
-                        b[3].max(p[1]),
-                    ];
-                }
-            }
-            if !(b.iter().all(|v| v.is_finite()) && b[2] >= b[0] && b[3] >= b[1]) {
-                return Err(LocalizationError::InvalidInitialBelief {
-                    field: "regions",
-                    reason: format!("no area to spread the particles over ({b:?})"),
-                });
-            }
-            let pi = std::f64::consts::PI;
-            for i in 0..x.len() {
-                let mut tries = 0;
-                loop {
-                    let px = b[0] + (b[2] - b[0]) * rng.random::<f64>();
-                    let py = b[1] + (b[3] - b[1]) * rng.random::<f64>();
-                    tries += 1;
-                    if regions.is_empty() || regions.iter().any(|r| point_in_polygon([px, py], r)) {
-                        x[i] = px;
-                        y[i] = py;
-                        break;
-                    }
-                    if tries > 10_000 {
-                        return Err(LocalizationError::InvalidInitialBelief {
-                            field: "regions",
-                            reason: "the polygons have (almost) no area".into(),
-                        });
-                    }
-                }
-                th[i] = rng.random_range(-pi..pi);
-            }
-        }
-    }
-    Ok(())
-}
 
 /// Ceiling brightness on a regular grid of nodes (x0 + i·step, y0 + j·step), bilinear
 /// between nodes; NaN marks a node without training data.
@@ -347,21 +268,12 @@ pub struct CeilingMcl {
     map: Arc<CeilingMap>,
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
-    idx: Vec<usize>,
-    pending: Pose2,
-    stamp: f64,
-    mean: Pose2,
-    covariance: Matrix3<f64>,
+    set: ParticleSet,
+    /// Below `resample_ess`: one brightness says little, so diversity is kept.
+    policy: ResamplePolicy,
+    carry: CarriedEstimate,
     updates: usize,
-    rejected: usize,
-    last_error: Option<LocalizationError>,
+    rejected: Rejections,
 }
 
 impl CeilingMcl {
@@ -381,47 +293,28 @@ impl CeilingMcl {
             name: name.to_owned(),
             motion: OdometryMotionModel::new(params.alpha),
             rng: ChaCha8Rng::seed_from_u64(seed),
-            x: vec![0.0; m],
-            y: vec![0.0; m],
-            th: vec![0.0; m],
-            w: vec![1.0 / m as f64; m],
-            x2: vec![0.0; m],
-            y2: vec![0.0; m],
-            th2: vec![0.0; m],
-            idx: vec![0; m],
-            pending: Pose2::default(),
-            stamp: 0.0,
-            mean: Pose2::default(),
-            covariance: Matrix3::zeros(),
+            set: ParticleSet::with_capacity(m),
+            policy: ResamplePolicy::BelowEss(params.resample_ess),
+            carry: CarriedEstimate::default(),
             updates: 0,
-            rejected: 0,
-            last_error: None,
+            rejected: Rejections::default(),
             params,
             map,
         };
         let extent = f.map.extent();
-        sample_initial_belief(init, extent, &mut f.rng, &mut f.x, &mut f.y, &mut f.th)?;
-        f.compute_estimate();
+        f.set.sample_initial_belief(m, init, extent, &mut f.rng)?;
+        f.carry.set(f.set.estimate(PointEstimate::WeightedMean));
         Ok(f)
     }
 
     /// p(z | x) = (1 − ε) N(z; m(x), σ²) + ε / range; where the map knows nothing, 1 / range.
     #[inline]
     pub fn likelihood(&self, z: f64, x: f64, y: f64) -> f64 {
-        let p = &self.params;
-        match self.map.brightness(x, y) {
-            Some(m) => {
-                let d = (z - m) / p.sigma;
-                (1.0 - p.outlier) * (-0.5 * d * d).exp()
-                    / (p.sigma * (2.0 * std::f64::consts::PI).sqrt())
-                    + p.outlier / p.range
-            }
-            None => 1.0 / p.range,
-        }
+        brightness_likelihood(&self.params, &self.map, z, x, y)
     }
 
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.x.len()).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     pub fn updates(&self) -> usize {
@@ -429,11 +322,11 @@ impl CeilingMcl {
     }
 
     pub fn rejected(&self) -> usize {
-        self.rejected
+        self.rejected.count
     }
 
     pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.last_error.as_ref()
+        self.rejected.last.as_ref()
     }
 
     /// Motion update with the odometry since the last reading, then the brightness `z`.
@@ -443,45 +336,32 @@ impl CeilingMcl {
                 "ceiling mcl: brightness must be finite, got {z}"
             )));
         }
-        self.apply_motion();
-        let m = self.x.len();
-        for i in 0..m {
-            let l = self.likelihood(z, self.x[i], self.y[i]);
-            self.w[i] *= l;
-        }
-        normalize_weights(&mut self.w);
+        self.set
+            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
+        let (params, map) = (&self.params, &self.map);
+        self.set
+            .reweight(|p, _| brightness_likelihood(params, map, z, p.x, p.y));
         self.updates += 1;
-        self.compute_estimate();
-        if effective_sample_size(&self.w) < self.params.resample_ess * m as f64 {
-            self.resample();
+        self.carry
+            .set(self.set.estimate(PointEstimate::WeightedMean));
+        if self.policy.due(self.set.ess(), self.set.len()) {
+            self.set.resample_plain(self.set.len(), &mut self.rng);
         }
         Ok(())
     }
+}
 
-    /// Degenerate weights leave the particles as they are (see [`resample_columns`]).
-    fn resample(&mut self) {
-        resample_columns(
-            [&mut self.x, &mut self.y, &mut self.th],
-            [&mut self.x2, &mut self.y2, &mut self.th2],
-            &mut self.w,
-            &mut self.idx,
-            &mut self.rng,
-        );
-    }
-
-    fn apply_motion(&mut self) {
-        move_by_pending_odometry(
-            &self.motion,
-            &mut self.pending,
-            [&mut self.x, &mut self.y, &mut self.th],
-            &mut self.rng,
-        );
-    }
-
-    fn compute_estimate(&mut self) {
-        let (mean, covariance) = weighted_mean_covariance(&self.x, &self.y, &self.th, &self.w);
-        self.mean = mean;
-        self.covariance = covariance;
+/// [`CeilingMcl::likelihood`] of brightness `z` at (x, y).
+#[inline]
+fn brightness_likelihood(p: &CeilingMclParams, map: &CeilingMap, z: f64, x: f64, y: f64) -> f64 {
+    match map.brightness(x, y) {
+        Some(m) => {
+            let d = (z - m) / p.sigma;
+            (1.0 - p.outlier) * (-0.5 * d * d).exp()
+                / (p.sigma * (2.0 * std::f64::consts::PI).sqrt())
+                + p.outlier / p.range
+        }
+        None => 1.0 / p.range,
     }
 }
 
@@ -491,7 +371,7 @@ impl Localizer for CeilingMcl {
     }
 
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -504,18 +384,13 @@ impl Localizer for CeilingMcl {
         if img.sensor != self.params.sensor {
             return Ok(());
         }
-        match reading_brightness(img).and_then(|z| self.observe(z)) {
-            Ok(()) => self.stamp = self.stamp.max(img.stamp),
-            Err(e) => {
-                self.rejected += 1;
-                self.last_error = Some(e);
-            }
-        }
+        let outcome = reading_brightness(img).and_then(|z| self.observe(z));
+        self.rejected.settle(outcome, img.stamp, &mut self.carry);
         Ok(())
     }
 
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
@@ -533,6 +408,8 @@ impl Capabilities for CeilingMcl {
 mod tests {
     use super::*;
     use atrium_robots::Mount3;
+    use rand::Rng;
+    use rand_distr::StandardNormal;
 
     /// Three lamps of different strength over a 6 × 4 m room.
     fn lamp(x: f64, y: f64) -> f64 {

@@ -27,23 +27,19 @@
 //!   least `accept_sigma_xy` / `accept_sigma_theta` (slip the odometry model cannot see). A
 //!   refinement that pulls a sample somewhere the motion cannot explain is refused.
 
-use crate::cluster::{point_estimate, ClusterScratch, PointEstimate};
+use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::line_map::LineMap;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particles::{
-    accumulate_odometry, carried_by_odometry, redraw_gaussian, resample_columns,
-    weights_from_log_likelihoods,
-};
+use crate::particle_set::ParticleSet;
+use crate::particles::CarriedEstimate;
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
-use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::limits::{check_count, check_count_min1, MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS};
@@ -206,24 +202,12 @@ pub struct Cgr {
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
     source: Source,
-    n: usize,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    logw: Vec<f64>,
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
-    idx: Vec<usize>,
+    /// `particles` particles, resampled after every update with observations.
+    set: ParticleSet,
     /// Observed points in the base frame and (depth) their unit normals.
     obs: Vec<[f64; 2]>,
     obs_normals: Vec<[f64; 2]>,
-    pending: Pose2,
-    stamp: f64,
-    mean: Pose2,
-    covariance: Matrix3<f64>,
-    cluster: ClusterScratch,
+    carry: CarriedEstimate,
     /// Refined samples accepted / offered, over the whole run.
     accepted: u64,
     offered: u64,
@@ -295,36 +279,19 @@ impl Cgr {
         };
         let m = params.particles;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let (mut x, mut y, mut th) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
-        for i in 0..m {
-            let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
-            x[i] = start.x + sigma[0] * g();
-            y[i] = start.y + sigma[1] * g();
-            th[i] = normalize_angle(start.theta + sigma[2] * g());
-        }
+        let mut set = ParticleSet::with_capacity(m);
+        // Validated above.
+        set.sample_gaussian(m, start, sigma, &mut rng);
         let mut cgr = Cgr {
             name: name.to_owned(),
             motion: OdometryMotionModel::new(params.alpha),
             map: line_map,
             rng,
             source,
-            n: m,
-            x,
-            y,
-            th,
-            w: vec![1.0 / m as f64; m],
-            logw: vec![0.0; m],
-            x2: vec![0.0; m],
-            y2: vec![0.0; m],
-            th2: vec![0.0; m],
-            idx: vec![0; m],
+            set,
             obs: Vec::with_capacity(params.max_points),
             obs_normals: Vec::with_capacity(params.max_points),
-            pending: Pose2::default(),
-            stamp: 0.0,
-            mean: start,
-            covariance: Matrix3::zeros(),
-            cluster: ClusterScratch::with_capacity(m),
+            carry: CarriedEstimate::default(),
             accepted: 0,
             offered: 0,
             fit: FitTracker::default(),
@@ -339,7 +306,7 @@ impl Cgr {
     }
 
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.n).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     /// Fraction of refined samples the acceptance test kept, over the run so far.
@@ -512,8 +479,7 @@ impl Cgr {
 
     /// Steps 1–4 of CGR on the current observation.
     fn cgr_update(&mut self) {
-        let p = self.pending;
-        self.pending = Pose2::default();
+        let p = std::mem::take(&mut self.carry.pending);
         let moved = p.x != 0.0 || p.y != 0.0 || p.theta != 0.0;
         let inc = self.motion.decompose(&Pose2::default(), &p);
         // The motion model as a Gaussian in the frame of each particle's odometry prediction,
@@ -532,8 +498,9 @@ impl Cgr {
         };
         let have_obs = self.obs.len() >= self.params.min_points;
         let r = self.params.refinements;
-        for i in 0..self.n {
-            let prev = Pose2::new(self.x[i], self.y[i], self.th[i]);
+        // CGR keeps its own step 1: its motion draws interleave with the acceptance test's.
+        for i in 0..self.set.len() {
+            let prev = self.set.pose(i);
             // Step 1: q⁰ from the motion model.
             let q0 = if moved {
                 let (x, y, th) = apply_increment(prev.x, prev.y, prev.theta, &inc, &mut self.rng);
@@ -542,7 +509,7 @@ impl Cgr {
                 prev
             };
             if !have_obs {
-                (self.x[i], self.y[i], self.th[i]) = (q0.x, q0.y, q0.theta);
+                self.set.set_pose(i, q0);
                 continue;
             }
             // Step 2: r refinement iterations.
@@ -571,8 +538,8 @@ impl Cgr {
             } else {
                 (q0, e0.loglik)
             };
-            (self.x[i], self.y[i], self.th[i]) = (chosen.x, chosen.y, chosen.theta);
-            self.logw[i] = ll;
+            self.set.set_pose(i, chosen);
+            self.set.log_likelihoods_mut()[i] = ll;
         }
         if !have_obs {
             // Nothing (or too little) to match: for the mismatch measure, as if every point
@@ -580,42 +547,25 @@ impl Cgr {
             let k = self.params.outlier_sigmas;
             let eps_out = (-0.5 * k * k).exp();
             self.fit
-                .record_blind(self.stamp, eps_out.ln() - (1.0 + eps_out).ln());
+                .record_blind(self.carry.stamp, eps_out.ln() - (1.0 + eps_out).ln());
             // The particles moved and `pending` was consumed: the estimate must follow them,
             // or it freezes wherever the sensor last saw something (open areas, 004 §3).
             self.compute_estimate();
             return;
         }
         // Step 4: importance weights (normalised in log space) and resampling.
-        let n = self.n;
         self.fit.record(
-            self.stamp,
-            per_unit_log_mean(&self.logw[..n], self.obs.len()),
+            self.carry.stamp,
+            per_unit_log_mean(self.set.log_likelihoods(), self.obs.len()),
         );
-        weights_from_log_likelihoods(&self.logw[..n], &mut self.w[..n]);
+        self.set.weigh_by_log_likelihoods();
         self.compute_estimate();
-        resample_columns(
-            [&mut self.x, &mut self.y, &mut self.th],
-            [&mut self.x2, &mut self.y2, &mut self.th2],
-            &mut self.w[..n],
-            &mut self.idx[..n],
-            &mut self.rng,
-        );
+        self.set.resample_plain(self.set.len(), &mut self.rng);
     }
 
     /// The estimate `params.estimate` asks for, and its covariance.
     fn compute_estimate(&mut self) {
-        let n = self.n;
-        let (mean, covariance, _) = point_estimate(
-            self.params.estimate,
-            &self.x[..n],
-            &self.y[..n],
-            &self.th[..n],
-            &self.w[..n],
-            &mut self.cluster,
-        );
-        self.mean = mean;
-        self.covariance = covariance;
+        self.carry.set(self.set.estimate(self.params.estimate));
     }
 }
 
@@ -626,7 +576,7 @@ impl Localizer for Cgr {
 
     /// Accumulates odometry; the motion model runs at the next observation (step 1).
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -637,11 +587,11 @@ impl Localizer for Cgr {
     fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
         match (reading, &self.source) {
             (Reading::Laser(scan), Source::Laser) => {
-                self.stamp = self.stamp.max(scan.stamp);
+                self.carry.observed_at(scan.stamp);
                 self.observe_laser(scan);
             }
             (Reading::Depth(img), Source::Depth { .. }) => {
-                self.stamp = self.stamp.max(img.stamp);
+                self.carry.observed_at(img.stamp);
                 if self.observe_depth(img).is_err() {
                     return Ok(());
                 }
@@ -653,7 +603,7 @@ impl Localizer for Cgr {
     }
 
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
@@ -667,18 +617,11 @@ impl Capabilities for Cgr {
     }
 
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        let n = self.n;
-        let ok = redraw_gaussian(
-            &mut self.x[..n],
-            &mut self.y[..n],
-            &mut self.th[..n],
-            pose,
-            sigma,
-            &mut self.rng,
-        );
+        let ok = self
+            .set
+            .sample_gaussian(self.set.len(), pose, sigma, &mut self.rng);
         if ok {
-            self.w[..n].fill(1.0 / n as f64);
-            self.pending = Pose2::default();
+            self.carry.pending = Pose2::default();
             self.compute_estimate();
         }
         ok

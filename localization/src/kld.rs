@@ -75,6 +75,53 @@ pub fn kld_bound(k: usize, epsilon: f64, delta: f64) -> usize {
     kld_bound_with_quantile(k, epsilon, normal_quantile(1.0 - delta))
 }
 
+/// KLD-adaptive sample size (Fox 2003): the bound for the number of bins a set occupies,
+/// kept within [min, max], with the bins of the set being drawn.
+#[derive(Debug, Clone)]
+pub struct KldSampling {
+    /// The bins occupied by the particles drawn since the last clear.
+    pub bins: BinSet,
+    epsilon: f64,
+    /// z_{1−δ}, computed once.
+    z: f64,
+    min: usize,
+    max: usize,
+}
+
+impl KldSampling {
+    /// Sizes within [min, max] for error bound `epsilon`, confidence 1 − `delta`, bins of
+    /// `bin` (m, m, rad); room for `max` bins.
+    pub fn new(min: usize, max: usize, epsilon: f64, delta: f64, bin: [f64; 3]) -> KldSampling {
+        KldSampling {
+            bins: BinSet::new(max, bin),
+            epsilon,
+            z: normal_quantile(1.0 - delta),
+            min,
+            max,
+        }
+    }
+
+    /// The unclamped bound for `k` occupied bins.
+    pub fn bound(&self, k: usize) -> usize {
+        kld_bound_with_quantile(k, self.epsilon, self.z)
+    }
+
+    /// Whether sequential sampling may stop after `n` draws (Fox 2003, Table 1's loop
+    /// condition, with the lower bound `min`).
+    pub fn enough(&self, n: usize) -> bool {
+        n >= self.min && n >= self.bound(self.bins.len())
+    }
+
+    /// The size for the bins counted so far, within [min, max].
+    pub fn target(&self) -> usize {
+        self.bound(self.bins.len()).clamp(self.min, self.max)
+    }
+
+    pub fn max(&self) -> usize {
+        self.max
+    }
+}
+
 /// The set of occupied (x, y, θ) bins, as an open-addressing hash set of packed bin keys with
 /// a fixed capacity: inserting never allocates, and clearing is O(1) (a generation counter).
 #[derive(Debug, Clone)]
@@ -209,5 +256,24 @@ mod tests {
             s.insert(i as f64, 0.0, 0.0);
         }
         assert_eq!(s.len(), 20);
+    }
+
+    #[test]
+    fn kld_sampling_sizes_from_the_bins_within_bounds() {
+        let mut k = KldSampling::new(50, 1000, 0.05, 0.01, [1.0, 1.0, 1.0]);
+        k.bins.insert(0.5, 0.5, 0.0);
+        // One bin: bound 1, clamped up to min.
+        assert_eq!(k.target(), 50);
+        assert!(!k.enough(49) && k.enough(50));
+        for i in 1..10 {
+            k.bins.insert(i as f64 + 0.5, 0.5, 0.0);
+        }
+        // Ten bins: 217 (hand-computed in bound_matches_hand_computed_values).
+        assert_eq!(k.target(), 217);
+        assert!(!k.enough(216) && k.enough(217));
+        for i in 10..200 {
+            k.bins.insert(i as f64 + 0.5, 0.5, 0.0);
+        }
+        assert_eq!(k.target(), 1000);
     }
 }

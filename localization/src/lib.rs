@@ -16,6 +16,7 @@ pub mod error_map;
 pub mod free_space;
 pub mod fspf;
 pub mod gp;
+pub mod initial_belief;
 pub mod kld;
 pub mod landmark_filter;
 pub mod likelihood_field;
@@ -28,6 +29,7 @@ pub mod motion;
 pub mod observation_fit;
 pub mod omni_map;
 pub mod omni_mcl;
+pub mod particle_set;
 pub mod particles;
 pub mod pca;
 pub mod resampling;
@@ -49,4 +51,7 @@ pub use line_map::LineMap;
 pub use localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
-pub use resampling::{low_variance_indices, low_variance_indices_with_offset};
+pub use particle_set::ParticleSet;
+pub use resampling::{
+    low_variance_indices, low_variance_indices_with_offset, Injection, ResamplePolicy,
+};

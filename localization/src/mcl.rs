@@ -2,24 +2,23 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
-use crate::cluster::{point_estimate, ClusterScratch, PointEstimate};
+use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::kld::{kld_bound_with_quantile, normal_quantile, BinSet};
+use crate::initial_belief::gaussian_pose;
+use crate::kld::KldSampling;
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
     check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
 };
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
-use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{accumulate_odometry, carried_by_odometry};
-use crate::resampling::low_variance_indices;
+use crate::motion::OdometryMotionModel;
+use crate::particle_set::ParticleSet;
+use crate::particles::CarriedEstimate;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
-use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -194,19 +193,8 @@ impl MclParams {
     }
 }
 
-/// Where the robot may be at the start.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum InitialBelief {
-    /// Gaussian around a known pose with standard deviations (x m, y m, θ rad).
-    Tracking { pose: Pose2, sigma: [f64; 3] },
-    /// Uniform over the Free cells inside any of the polygons (x, y vertices in metres), or
-    /// over every Free cell if there is none; uniform heading.
-    Global {
-        #[serde(default)]
-        regions: Vec<Vec<[f64; 2]>>,
-    },
-}
+/// Where the robot may be at the start (defined with the steps every filter shares).
+pub use crate::initial_belief::InitialBelief;
 
 /// Monte Carlo localization on an occupancy grid with a laser.
 #[derive(Debug, Clone)]
@@ -218,40 +206,24 @@ pub struct Mcl {
     field: Arc<LikelihoodField>,
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
-    /// z_{1−δ} of the KLD bound, computed once.
-    kld_z: f64,
-    /// Live particle count; the buffers below hold max_particles.
-    n: usize,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    /// Resampling targets, swapped with x/y/th.
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
-    /// Log-likelihood per particle of the current scan.
-    logw: Vec<f64>,
-    idx: Vec<usize>,
+    /// Up to max_particles particles.
+    set: ParticleSet,
+    /// The KLD-adapted size and the bins it counts.
+    kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
     beam_x: Vec<f64>,
     beam_y: Vec<f64>,
-    bins: BinSet,
-    cluster: ClusterScratch,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
     grid_resolution: f64,
     grid_width: usize,
-    /// Odometry accumulated since the last applied motion update, in the robot frame.
-    pending: Pose2,
     updated_once: bool,
     w_slow: f64,
     w_fast: f64,
-    stamp: f64,
-    /// Weighted mean and covariance at the last sensor update (before resampling).
-    mean: Pose2,
-    covariance: Matrix3<f64>,
+    /// Odometry accumulated since the last applied motion update (in the robot frame), the
+    /// clock, and the estimate at the last sensor update (before resampling).
+    carry: CarriedEstimate,
     /// Sensing mismatch (004 §4.2) per beam, on its own time-based averages (w_slow and
     /// w_fast above exist only with recovery enabled and run per update).
     fit: crate::observation_fit::FitTracker,
@@ -375,32 +347,24 @@ impl Mcl {
             name: name.to_owned(),
             motion: OdometryMotionModel::new(params.alpha),
             rng: ChaCha8Rng::seed_from_u64(seed),
-            kld_z: normal_quantile(1.0 - params.kld_delta),
-            n: 0,
-            x: vec![0.0; m],
-            y: vec![0.0; m],
-            th: vec![0.0; m],
-            w: vec![0.0; m],
-            x2: vec![0.0; m],
-            y2: vec![0.0; m],
-            th2: vec![0.0; m],
-            logw: vec![0.0; m],
-            idx: vec![0; m],
+            set: ParticleSet::with_capacity(m),
+            kld: KldSampling::new(
+                params.min_particles,
+                m,
+                params.kld_epsilon,
+                params.kld_delta,
+                params.kld_bin,
+            ),
             beam_x: Vec::with_capacity(params.max_beams),
             beam_y: Vec::with_capacity(params.max_beams),
-            bins: BinSet::new(m, params.kld_bin),
-            cluster: ClusterScratch::with_capacity(m),
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
             grid_width: map.width,
-            pending: Pose2::default(),
             updated_once: false,
             w_slow: 0.0,
             w_fast: 0.0,
-            stamp: 0.0,
-            mean: Pose2::default(),
-            covariance: Matrix3::zeros(),
+            carry: CarriedEstimate::default(),
             fit: Default::default(),
             field: map.field.clone(),
             params,
@@ -475,37 +439,14 @@ impl Mcl {
                 }
             }
         }
-        self.bins.clear();
-        let mut n = 0;
-        while n < self.params.max_particles {
-            let p = match init {
-                InitialBelief::Tracking { pose, sigma } => {
-                    let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
-                    Pose2::new(
-                        pose.x + sigma[0] * g(&mut self.rng),
-                        pose.y + sigma[1] * g(&mut self.rng),
-                        normalize_angle(pose.theta + sigma[2] * g(&mut self.rng)),
-                    )
-                }
-                InitialBelief::Global { .. } => self.random_pose(&region_cells),
-            };
-            self.x[n] = p.x;
-            self.y[n] = p.y;
-            self.th[n] = p.theta;
-            self.bins.insert(p.x, p.y, p.theta);
-            n += 1;
-            if n >= self.params.min_particles && n >= self.kld_size(self.bins.len()) {
-                break;
-            }
-        }
-        self.n = n;
-        self.w[..n].fill(1.0 / n as f64);
+        let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
+        self.set
+            .sample_kld(&mut self.kld, &mut self.rng, |rng| match init {
+                InitialBelief::Tracking { pose, sigma } => gaussian_pose(pose, sigma, rng),
+                InitialBelief::Global { .. } => random_pose(&region_cells, origin, res, width, rng),
+            });
         self.compute_estimate();
         Ok(())
-    }
-
-    fn kld_size(&self, k: usize) -> usize {
-        kld_bound_with_quantile(k, self.params.kld_epsilon, self.kld_z)
     }
 
     fn cell_centre(&self, k: u32) -> [f64; 2] {
@@ -517,32 +458,18 @@ impl Mcl {
         ]
     }
 
-    /// Uniform over the given cells (each cell uniformly), uniform heading.
-    fn random_pose(&mut self, cells: &[u32]) -> Pose2 {
-        let k = cells[self.rng.random_range(0..cells.len())] as usize;
-        let (i, j) = (k % self.grid_width, k / self.grid_width);
-        let u: f64 = self.rng.random();
-        let v: f64 = self.rng.random();
-        let t: f64 = self.rng.random();
-        Pose2::new(
-            self.grid_origin[0] + (i as f64 + u) * self.grid_resolution,
-            self.grid_origin[1] + (j as f64 + v) * self.grid_resolution,
-            normalize_angle((2.0 * t - 1.0) * std::f64::consts::PI),
-        )
-    }
-
     pub fn params(&self) -> &MclParams {
         &self.params
     }
 
     pub fn particle_count(&self) -> usize {
-        self.n
+        self.set.len()
     }
 
     /// The particles and their weights as of the last sensor update (odometry received since
     /// is not applied to them; `estimate` does apply it).
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.n).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     /// Probability of replacing a particle by a random one at the next resampling
@@ -557,19 +484,8 @@ impl Mcl {
 
     /// Applies the odometry accumulated since the last update through the motion model.
     fn apply_motion(&mut self) {
-        let p = self.pending;
-        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
-            // Standing still: no diffusion, or particles would spread while the robot waits.
-            return;
-        }
-        let inc = self.motion.decompose(&Pose2::default(), &p);
-        for i in 0..self.n {
-            let (x, y, th) = apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
-            self.x[i] = x;
-            self.y[i] = y;
-            self.th[i] = th;
-        }
-        self.pending = Pose2::default();
+        self.set
+            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
     }
 
     /// Picks up to max_beams valid beams, evenly spread over the valid ones, and stores
@@ -617,38 +533,24 @@ impl Mcl {
         if nb == 0 {
             return;
         }
-        let n = self.n;
         let field = &self.field;
         let (bx, by) = (&self.beam_x[..nb], &self.beam_y[..nb]);
-        for i in 0..n {
-            let (s, c) = self.th[i].sin_cos();
-            let (px, py) = (self.x[i], self.y[i]);
+        self.set.reweight_log(|px, py, th| {
+            let (s, c) = th.sin_cos();
             let mut l = 0.0;
             for (&u, &v) in bx.iter().zip(by) {
                 l += field.log_likelihood(px + c * u - s * v, py + s * u + c * v);
             }
-            self.logw[i] = l;
-        }
-        // Normalise in log space: the raw product of 60 densities under- or overflows.
-        let max = self.logw[..n]
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
+            l
+        });
+        let n = self.set.len();
         let inv_nb = 1.0 / nb as f64;
-        let mut sum = 0.0;
         let mut per_beam = 0.0;
-        for i in 0..n {
-            let l = self.logw[i];
-            let w = (l - max).exp();
-            self.w[i] = w;
-            sum += w;
+        for &l in self.set.log_likelihoods() {
             per_beam += (l * inv_nb).exp();
         }
-        let inv = 1.0 / sum;
-        for w in &mut self.w[..n] {
-            *w *= inv;
-        }
-        self.fit.record(self.stamp, (per_beam / n as f64).ln());
+        self.fit
+            .record(self.carry.stamp, (per_beam / n as f64).ln());
         // Augmented MCL bookkeeping (Table 8.3) on the per-beam geometric mean likelihood:
         // the raw product swings by orders of magnitude with the number of valid beams in a
         // scan, which would read as a sudden loss of track.
@@ -666,73 +568,47 @@ impl Mcl {
         self.resample();
     }
 
-    /// KLD-sized low-variance resampling with random injection. The set is first resampled
-    /// at its current size and the bins it occupies counted (injected particles included); if
-    /// the KLD bound for that many bins asks for a different size, it is resampled again at
-    /// that size. Fox's sequential draw cannot be combined with a systematic comb, whose step
-    /// needs the count in advance; this sizes the set from the spread of the same posterior.
+    /// KLD-sized low-variance resampling with random injection (see
+    /// [`ParticleSet::resample_kld`]).
     fn resample(&mut self) {
-        let p_inj = self.injection_probability();
-        let n = self.n;
-        self.fill_resampled(n, p_inj);
-        let k = self.bins.len();
-        let target = self
-            .kld_size(k)
-            .clamp(self.params.min_particles, self.params.max_particles);
-        if target != n {
-            self.fill_resampled(target, p_inj);
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.n = target;
-        self.w[..target].fill(1.0 / target as f64);
-    }
-
-    /// Resamples the current set into the `*2` buffers at size `m`, counting bins.
-    fn fill_resampled(&mut self, m: usize, p_inj: f64) {
-        let n = self.n;
-        let ok = low_variance_indices(&self.w[..n], &mut self.idx[..m], &mut self.rng);
-        if !ok {
-            // All weights vanished (cannot happen with z_rand > 0, kept for safety): keep an
-            // even spread over the current particles.
-            for (k, slot) in self.idx[..m].iter_mut().enumerate() {
-                *slot = k * n / m;
-            }
-        }
-        self.bins.clear();
-        let inject = p_inj > 0.0 && !self.free_cells.is_empty();
-        for k in 0..m {
-            let (x, y, th) = if inject && self.rng.random::<f64>() < p_inj {
-                let cells = std::mem::take(&mut self.free_cells);
-                let p = self.random_pose(&cells);
-                self.free_cells = cells;
-                (p.x, p.y, p.theta)
-            } else {
-                let i = self.idx[k];
-                (self.x[i], self.y[i], self.th[i])
-            };
-            self.x2[k] = x;
-            self.y2[k] = y;
-            self.th2[k] = th;
-            self.bins.insert(x, y, th);
-        }
+        let p_inj = if self.free_cells.is_empty() {
+            0.0
+        } else {
+            self.injection_probability()
+        };
+        let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
+        let cells = &self.free_cells;
+        self.set
+            .resample_kld(&mut self.kld, p_inj, &mut self.rng, |rng| {
+                random_pose(cells, origin, res, width, rng)
+            });
     }
 
     /// The estimate `params.estimate` asks for, and its covariance.
     fn compute_estimate(&mut self) {
-        let n = self.n;
-        let (mean, covariance, _) = point_estimate(
-            self.params.estimate,
-            &self.x[..n],
-            &self.y[..n],
-            &self.th[..n],
-            &self.w[..n],
-            &mut self.cluster,
-        );
-        self.mean = mean;
-        self.covariance = covariance;
+        self.carry.set(self.set.estimate(self.params.estimate));
     }
+}
+
+/// Uniform over the given cells of a grid (`origin`, `res`, `width`), each cell uniformly,
+/// uniform heading: a cell index, then x, y and θ fractions.
+fn random_pose<R: Rng + ?Sized>(
+    cells: &[u32],
+    origin: [f64; 2],
+    res: f64,
+    width: usize,
+    rng: &mut R,
+) -> Pose2 {
+    let k = cells[rng.random_range(0..cells.len())] as usize;
+    let (i, j) = (k % width, k / width);
+    let u: f64 = rng.random();
+    let v: f64 = rng.random();
+    let t: f64 = rng.random();
+    Pose2::new(
+        origin[0] + (i as f64 + u) * res,
+        origin[1] + (j as f64 + v) * res,
+        normalize_angle((2.0 * t - 1.0) * std::f64::consts::PI),
+    )
 }
 
 impl Localizer for Mcl {
@@ -742,7 +618,7 @@ impl Localizer for Mcl {
 
     /// Accumulates odometry; the motion model runs just before the next sensor update.
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -752,9 +628,10 @@ impl Localizer for Mcl {
         let Reading::Laser(scan) = reading else {
             return Ok(());
         };
-        self.stamp = self.stamp.max(scan.stamp);
-        let moved = self.pending.x.hypot(self.pending.y) >= self.params.update_min_d
-            || self.pending.theta.abs() >= self.params.update_min_a;
+        self.carry.observed_at(scan.stamp);
+        let pending = self.carry.pending;
+        let moved = pending.x.hypot(pending.y) >= self.params.update_min_d
+            || pending.theta.abs() >= self.params.update_min_a;
         if self.updated_once && !moved {
             return Ok(());
         }
@@ -767,7 +644,7 @@ impl Localizer for Mcl {
     /// The weighted mean at the last sensor update, moved by the odometry received since,
     /// with its covariance carried through the same composition (first order).
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
@@ -782,19 +659,10 @@ impl Capabilities for Mcl {
 
     /// Redraws the current number of particles (at least `min_particles`) around `pose`.
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        let n = self.n.max(self.params.min_particles);
-        let ok = crate::particles::redraw_gaussian(
-            &mut self.x[..n],
-            &mut self.y[..n],
-            &mut self.th[..n],
-            pose,
-            sigma,
-            &mut self.rng,
-        );
+        let n = self.set.len().max(self.params.min_particles);
+        let ok = self.set.sample_gaussian(n, pose, sigma, &mut self.rng);
         if ok {
-            self.n = n;
-            self.w[..n].fill(1.0 / n as f64);
-            self.pending = Pose2::default();
+            self.carry.pending = Pose2::default();
             self.compute_estimate();
         }
         ok

@@ -21,18 +21,16 @@
 //! resetting" / mixture proposal of Lenser and Veloso, Thrun et al.): 001's map gives that
 //! proposal for free, since the energy at every node and rotation is one table lookup.
 
-use crate::ceiling_mcl::sample_initial_belief;
+use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::omni_map::OmniMap;
-use crate::particles::{
-    accumulate_odometry, carried_by_odometry, effective_sample_size, move_by_pending_odometry,
-    normalize_weights, redraw_gaussian, resample_columns, weighted_mean_covariance,
-};
+use crate::particle_set::ParticleSet;
+use crate::particles::{CarriedEstimate, Rejections};
+use crate::resampling::{injection_count, Injection, ResamplePolicy};
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
-use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -111,27 +109,16 @@ pub struct OmniMcl {
     inv_two_sigma2: f64,
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
-    idx: Vec<usize>,
+    set: ParticleSet,
+    /// Below `resample_ess`, as the ceiling filter.
+    policy: ResamplePolicy,
     /// Features of the current panorama.
     feat: Vec<f64>,
-    /// Per-particle log-likelihood of the current update.
-    loglik: Vec<f64>,
     /// Energy at every (node, rotation), then the cumulative proposal over them.
     table: Vec<f64>,
-    pending: Pose2,
-    stamp: f64,
-    mean: Pose2,
-    covariance: Matrix3<f64>,
+    carry: CarriedEstimate,
     updates: usize,
-    rejected: usize,
-    last_error: Option<LocalizationError>,
+    rejected: Rejections,
 }
 
 impl OmniMcl {
@@ -163,29 +150,18 @@ impl OmniMcl {
             inv_two_sigma2: 0.5 / sigma2,
             motion: OdometryMotionModel::new(params.alpha),
             rng: ChaCha8Rng::seed_from_u64(seed),
-            x: vec![0.0; m],
-            y: vec![0.0; m],
-            th: vec![0.0; m],
-            w: vec![1.0 / m as f64; m],
-            x2: vec![0.0; m],
-            y2: vec![0.0; m],
-            th2: vec![0.0; m],
-            idx: vec![0; m],
+            set: ParticleSet::with_capacity(m),
+            policy: ResamplePolicy::BelowEss(params.resample_ess),
             feat: vec![0.0; map.d()],
-            loglik: vec![0.0; m],
             table: Vec::with_capacity(nx * ny * map.rotations()),
-            pending: Pose2::default(),
-            stamp: 0.0,
-            mean: Pose2::default(),
-            covariance: Matrix3::zeros(),
+            carry: CarriedEstimate::default(),
             updates: 0,
-            rejected: 0,
-            last_error: None,
+            rejected: Rejections::default(),
             params,
             map,
         };
         let extent = f.map.extent();
-        sample_initial_belief(init, extent, &mut f.rng, &mut f.x, &mut f.y, &mut f.th)?;
+        f.set.sample_initial_belief(m, init, extent, &mut f.rng)?;
         f.compute_estimate();
         Ok(f)
     }
@@ -196,7 +172,7 @@ impl OmniMcl {
     }
 
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.x.len()).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     pub fn updates(&self) -> usize {
@@ -204,115 +180,100 @@ impl OmniMcl {
     }
 
     pub fn rejected(&self) -> usize {
-        self.rejected
+        self.rejected.count
     }
 
     pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.last_error.as_ref()
+        self.rejected.last.as_ref()
     }
 
     /// Motion update with the odometry since the last reading, then the panorama `image`
     /// (row-major, the map's width × height).
     pub fn observe(&mut self, image: &[f32]) -> Result<(), LocalizationError> {
         self.map.features_into(image, &mut self.feat)?;
-        self.apply_motion();
-        let m = self.x.len();
+        self.set
+            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
+        let m = self.set.len();
         let mut best = f64::NEG_INFINITY;
         for i in 0..m {
-            let pose = Pose2::new(self.x[i], self.y[i], self.th[i]);
-            self.loglik[i] = match self.map.energy_at(&self.feat, &pose) {
+            let pose = self.set.pose(i);
+            let l = match self.map.energy_at(&self.feat, &pose) {
                 Some(e) => -e * self.inv_two_sigma2,
                 None => f64::NEG_INFINITY,
             };
-            best = best.max(self.loglik[i]);
+            self.set.log_likelihoods_mut()[i] = l;
+            best = best.max(l);
         }
         let eps = self.params.outlier;
-        for i in 0..m {
+        self.set.reweight(|_, l| {
             // Relative to the best particle: exp never underflows for all of them at once,
             // and the floor is a fraction of the best explanation.
-            let l = if best.is_finite() {
-                eps + (1.0 - eps) * (self.loglik[i] - best).exp()
+            if best.is_finite() {
+                eps + (1.0 - eps) * (l - best).exp()
             } else {
                 1.0
-            };
-            self.w[i] *= l;
-        }
-        normalize_weights(&mut self.w);
+            }
+        });
         self.updates += 1;
         self.compute_estimate();
-        if effective_sample_size(&self.w) < self.params.resample_ess * m as f64 {
+        if self.policy.due(self.set.ess(), m) {
             self.resample();
             self.compute_estimate();
         }
         Ok(())
     }
 
+    /// Low-variance resampling, then `inject` of the particles replaced by draws from
+    /// exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half a grid step
+    /// and half a rotation step.
     fn resample(&mut self) {
-        let m = self.x.len();
-        if !resample_columns(
-            [&mut self.x, &mut self.y, &mut self.th],
-            [&mut self.x2, &mut self.y2, &mut self.th2],
-            &mut self.w,
-            &mut self.idx,
-            &mut self.rng,
-        ) {
+        let m = self.set.len();
+        let k = injection_count(self.params.inject, m);
+        let total = if k > 0 { self.proposal() } else { None };
+        let Some(total) = total else {
+            self.set.resample_plain(m, &mut self.rng);
             return;
-        }
-        let k = (self.params.inject * m as f64).round() as usize;
-        if k > 0 {
-            self.inject(k);
-        }
+        };
+        let (map, table) = (&self.map, &self.table);
+        let r = map.rotations();
+        let (nx, _) = map.nodes();
+        let step = map.step();
+        let half_turn = std::f64::consts::PI / r as f64;
+        self.set
+            .resample(m, Injection::Count(k), &mut self.rng, |rng| {
+                let u = rng.random::<f64>() * total;
+                let cell = table.partition_point(|c| *c <= u).min(table.len() - 1);
+                let (node, rot) = (cell / r, cell % r);
+                let [cx, cy] = map.node_position(node % nx, node / nx);
+                Pose2::new(
+                    cx + step * (rng.random::<f64>() - 0.5),
+                    cy + step * (rng.random::<f64>() - 0.5),
+                    normalize_angle(
+                        map.heading(rot) + half_turn * (2.0 * rng.random::<f64>() - 1.0),
+                    ),
+                )
+            });
     }
 
-    /// Replaces `k` particles (at random: after resampling they are interchangeable) by
-    /// draws from exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half
-    /// a grid step and half a rotation step.
-    fn inject(&mut self, k: usize) {
+    /// The energy function of the current panorama as a cumulative table over every
+    /// (node, rotation), and its total; None when no energy is finite.
+    fn proposal(&mut self) -> Option<f64> {
         self.map.energy(&self.feat, &mut self.table);
         let emin = self.table.iter().copied().fold(f64::INFINITY, f64::min);
         if !emin.is_finite() {
-            return;
+            return None;
         }
         let mut acc = 0.0;
         for e in &mut self.table {
             acc += (-(*e - emin) * self.inv_two_sigma2).exp();
             *e = acc;
         }
-        let r = self.map.rotations();
-        let (nx, _) = self.map.nodes();
-        let step = self.map.step();
-        let half_turn = std::f64::consts::PI / r as f64;
-        let m = self.x.len();
-        for _ in 0..k {
-            let u = self.rng.random::<f64>() * acc;
-            let cell = self
-                .table
-                .partition_point(|c| *c <= u)
-                .min(self.table.len() - 1);
-            let (node, rot) = (cell / r, cell % r);
-            let [cx, cy] = self.map.node_position(node % nx, node / nx);
-            let i = self.rng.random_range(0..m);
-            self.x[i] = cx + step * (self.rng.random::<f64>() - 0.5);
-            self.y[i] = cy + step * (self.rng.random::<f64>() - 0.5);
-            self.th[i] = normalize_angle(
-                self.map.heading(rot) + half_turn * (2.0 * self.rng.random::<f64>() - 1.0),
-            );
-        }
-    }
-
-    fn apply_motion(&mut self) {
-        move_by_pending_odometry(
-            &self.motion,
-            &mut self.pending,
-            [&mut self.x, &mut self.y, &mut self.th],
-            &mut self.rng,
-        );
+        Some(acc)
     }
 
     fn compute_estimate(&mut self) {
-        let (mean, covariance) = weighted_mean_covariance(&self.x, &self.y, &self.th, &self.w);
-        self.mean = mean;
-        self.covariance = covariance;
+        self.carry
+            .set(self.set.estimate(PointEstimate::WeightedMean));
     }
 
     fn check(&self, img: &IntensityImage) -> Result<(), LocalizationError> {
@@ -332,7 +293,7 @@ impl Localizer for OmniMcl {
     }
 
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -345,18 +306,13 @@ impl Localizer for OmniMcl {
         if img.sensor != self.params.sensor {
             return Ok(());
         }
-        match self.check(img).and_then(|()| self.observe(&img.pixels)) {
-            Ok(()) => self.stamp = self.stamp.max(img.stamp),
-            Err(e) => {
-                self.rejected += 1;
-                self.last_error = Some(e);
-            }
-        }
+        let outcome = self.check(img).and_then(|()| self.observe(&img.pixels));
+        self.rejected.settle(outcome, img.stamp, &mut self.carry);
         Ok(())
     }
 
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
@@ -370,19 +326,11 @@ impl Capabilities for OmniMcl {
     }
 
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        if !redraw_gaussian(
-            &mut self.x,
-            &mut self.y,
-            &mut self.th,
-            pose,
-            sigma,
-            &mut self.rng,
-        ) {
+        let m = self.set.len();
+        if !self.set.sample_gaussian(m, pose, sigma, &mut self.rng) {
             return false;
         }
-        let m = self.x.len();
-        self.w.fill(1.0 / m as f64);
-        self.pending = Pose2::default();
+        self.carry.pending = Pose2::default();
         self.compute_estimate();
         true
     }

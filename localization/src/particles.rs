@@ -1,7 +1,9 @@
-//! Pieces every particle filter here (MCL, CGR, the WiFi filter) shares: the weighted
-//! estimate of a struct-of-arrays particle set, and that estimate carried forward by the
-//! odometry received since the last sensor update.
+//! Pieces every particle filter here shares besides the set itself (`particle_set.rs`): the
+//! weighted estimate of struct-of-arrays columns, weight normalisation, the odometry a filter
+//! has received but not yet applied and the estimate carried forward by it, and the count of
+//! readings a filter refused.
 
+use crate::error::LocalizationError;
 use crate::localizer::{Estimate, OdometryDelta};
 use atrium_robots::{normalize_angle, Pose2};
 use nalgebra::{Matrix3, Vector3};
@@ -102,26 +104,6 @@ pub fn carried_by_odometry(
     }
 }
 
-/// Moves every particle by the odometry accumulated in `pending` (sampled from `model`, one
-/// draw per particle) and clears it; nothing happens while the robot has not moved.
-pub fn move_by_pending_odometry<R: rand::Rng + ?Sized>(
-    model: &crate::motion::OdometryMotionModel,
-    pending: &mut Pose2,
-    cols: [&mut [f64]; 3],
-    rng: &mut R,
-) {
-    let p = *pending;
-    if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
-        return;
-    }
-    let inc = model.decompose(&Pose2::default(), &p);
-    let [xs, ys, ths] = cols;
-    for ((x, y), th) in xs.iter_mut().zip(ys.iter_mut()).zip(ths.iter_mut()) {
-        (*x, *y, *th) = crate::motion::apply_increment(*x, *y, *th, &inc, rng);
-    }
-    *pending = Pose2::default();
-}
-
 /// Divides the weights by their sum; degenerate weights (sum zero, NaN or infinite) become
 /// uniform, so a filter whose observation explained nothing keeps its particles.
 pub fn normalize_weights(w: &mut [f64]) {
@@ -136,13 +118,24 @@ pub fn normalize_weights(w: &mut [f64]) {
 }
 
 /// Normalised weights from log-likelihoods, computed in log space (the raw product of many
-/// densities under- or overflows): w_i ∝ exp(logw_i − max_j logw_j).
+/// densities under- or overflows): w_i ∝ exp(logw_i − max_j logw_j). Degenerate
+/// log-likelihoods (all −∞ or NaN) give uniform weights. The sum is inverted once and
+/// multiplied in (MCL's arithmetic since its first version: its seeded runs depend on it).
 pub fn weights_from_log_likelihoods(logw: &[f64], w: &mut [f64]) {
     let max = logw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut sum = 0.0;
     for (wi, &l) in w.iter_mut().zip(logw) {
         *wi = (l - max).exp();
+        sum += *wi;
     }
-    normalize_weights(w);
+    if !(sum.is_finite() && sum > 0.0) {
+        w.fill(1.0 / w.len().max(1) as f64);
+        return;
+    }
+    let inv = 1.0 / sum;
+    for wi in w.iter_mut() {
+        *wi *= inv;
+    }
 }
 
 /// Effective sample size 1 / Σ w² of normalised weights.
@@ -150,57 +143,73 @@ pub fn effective_sample_size(w: &[f64]) -> f64 {
     1.0 / w.iter().map(|v| v * v).sum::<f64>()
 }
 
-/// Low-variance resampling of struct-of-arrays pose columns `[x, y, θ]`: the chosen particles
-/// are copied into the scratch columns, which are then swapped in, and the weights become
-/// uniform. Allocation-free. Returns false, changing nothing, when the weights are degenerate.
-pub fn resample_columns<R: rand::Rng + ?Sized>(
-    cols: [&mut Vec<f64>; 3],
-    scratch: [&mut Vec<f64>; 3],
-    w: &mut [f64],
-    idx: &mut [usize],
-    rng: &mut R,
-) -> bool {
-    if !crate::resampling::low_variance_indices(w, idx, rng) {
-        return false;
-    }
-    for (col, tmp) in cols.into_iter().zip(scratch) {
-        for (slot, &i) in tmp.iter_mut().zip(idx.iter()) {
-            *slot = col[i];
-        }
-        std::mem::swap(col, tmp);
-    }
-    w.fill(1.0 / w.len().max(1) as f64);
-    true
+/// What a particle filter's `predict` and `estimate` amount to: the odometry received but
+/// not yet applied to the particles (filters apply it lazily, just before the next
+/// observation), the filter's clock, and the estimate of its last sensor update.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CarriedEstimate {
+    /// Odometry accumulated since it was last applied, in the robot frame.
+    pub pending: Pose2,
+    pub stamp: f64,
+    pub mean: Pose2,
+    pub covariance: Matrix3<f64>,
 }
 
-/// Redraws a particle set from a Gaussian around `pose` with standard deviations `sigma`
-/// (x, y, θ): the re-seeding of a lost filter by a sensor chooser (`chooser.rs`). Returns
-/// false, leaving the set alone, when `pose` or `sigma` is not finite (or sigma < 0).
-pub fn redraw_gaussian(
-    x: &mut [f64],
-    y: &mut [f64],
-    th: &mut [f64],
-    pose: Pose2,
-    sigma: [f64; 3],
-    rng: &mut rand_chacha::ChaCha8Rng,
-) -> bool {
-    use rand_distr::{Distribution, StandardNormal};
-    if !pose.is_finite() || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
-        return false;
+impl CarriedEstimate {
+    /// [`accumulate_odometry`].
+    pub fn accumulate(&mut self, delta: &OdometryDelta) {
+        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
     }
-    for i in 0..x.len() {
-        let mut g = || -> f64 { StandardNormal.sample(rng) };
-        x[i] = pose.x + sigma[0] * g();
-        y[i] = pose.y + sigma[1] * g();
-        th[i] = normalize_angle(pose.theta + sigma[2] * g());
+
+    /// Advances the clock to a reading's stamp.
+    pub fn observed_at(&mut self, stamp: f64) {
+        self.stamp = self.stamp.max(stamp);
     }
-    true
+
+    /// Sets the estimate of the last sensor update.
+    pub fn set(&mut self, (mean, covariance): (Pose2, Matrix3<f64>)) {
+        self.mean = mean;
+        self.covariance = covariance;
+    }
+
+    /// [`carried_by_odometry`]: the last estimate moved by the pending odometry.
+    pub fn estimate(&self) -> Estimate {
+        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+    }
+}
+
+/// Readings a filter refused (wrong size, non-finite values) and the last reason: a bad
+/// reading is counted, never a panic nor an error that stops a run.
+#[derive(Debug, Default)]
+pub struct Rejections {
+    pub count: usize,
+    pub last: Option<LocalizationError>,
+}
+
+impl Rejections {
+    pub fn record(&mut self, e: LocalizationError) {
+        self.count += 1;
+        self.last = Some(e);
+    }
+
+    /// The outcome of a reading stamped `stamp`: the filter's clock advances to it when it
+    /// was used; a refused one is counted and leaves the clock alone.
+    pub fn settle(
+        &mut self,
+        outcome: Result<(), LocalizationError>,
+        stamp: f64,
+        carry: &mut CarriedEstimate,
+    ) {
+        match outcome {
+            Ok(()) => carry.observed_at(stamp),
+            Err(e) => self.record(e),
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     /// Log-likelihoods far below what exp can represent still give the right ratios; a set
     /// where every particle is impossible keeps uniform weights.
@@ -217,6 +226,14 @@ mod tests {
     }
 
     #[test]
+    fn effective_sample_size_by_hand() {
+        // Uniform over 4: 4; all on one: 1; (0.5, 0.5, 0, 0): 2.
+        assert!((effective_sample_size(&[0.25; 4]) - 4.0).abs() < 1e-12);
+        assert_eq!(effective_sample_size(&[0.0, 1.0, 0.0]), 1.0);
+        assert!((effective_sample_size(&[0.5, 0.5, 0.0, 0.0]) - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn weights_normalise_and_degenerate_ones_become_uniform() {
         let mut w = [1.0, 3.0];
         normalize_weights(&mut w);
@@ -225,41 +242,6 @@ mod tests {
         let mut w = [0.0, 0.0, 0.0, f64::NAN];
         normalize_weights(&mut w);
         assert_eq!(w, [0.25; 4]);
-    }
-
-    #[test]
-    fn resampling_columns_keeps_whole_particles_and_only_heavy_ones() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let (mut x, mut y, mut th) = (
-            vec![0.0, 1.0, 2.0],
-            vec![10.0, 11.0, 12.0],
-            vec![0.1, 0.2, 0.3],
-        );
-        let (mut x2, mut y2, mut th2) = (vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]);
-        let mut w = vec![0.0, 1.0, 0.0];
-        let mut idx = vec![0; 3];
-        let cols = [&mut x, &mut y, &mut th];
-        assert!(resample_columns(
-            cols,
-            [&mut x2, &mut y2, &mut th2],
-            &mut w,
-            &mut idx,
-            &mut rng
-        ));
-        assert_eq!(
-            (x.clone(), y.clone(), th.clone()),
-            (vec![1.0; 3], vec![11.0; 3], vec![0.2; 3])
-        );
-        assert_eq!(w, vec![1.0 / 3.0; 3]);
-        let mut dead = vec![0.0; 3];
-        let cols = [&mut x, &mut y, &mut th];
-        assert!(!resample_columns(
-            cols,
-            [&mut x2, &mut y2, &mut th2],
-            &mut dead,
-            &mut idx,
-            &mut rng
-        ));
     }
 
     #[test]

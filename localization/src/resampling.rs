@@ -47,6 +47,47 @@ pub fn low_variance_indices<R: Rng + ?Sized>(
     low_variance_indices_with_offset(weights, out, offset)
 }
 
+/// When a filter resamples after a sensor update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ResamplePolicy {
+    /// After every update (MCL, CGR, the WiFi filter: each update carries enough evidence
+    /// that weights are worth little afterwards).
+    EveryUpdate,
+    /// When the effective sample size falls below this fraction of the particles: a filter
+    /// whose single readings say little (a ceiling brightness) keeps its diversity until the
+    /// weights really degenerate (Thrun et al., *Probabilistic Robotics*, §4.3.4, on
+    /// resampling too often).
+    BelowEss(f64),
+}
+
+impl ResamplePolicy {
+    /// Whether a set of `n` particles with effective sample size `ess` is due.
+    pub fn due(&self, ess: f64, n: usize) -> bool {
+        match *self {
+            ResamplePolicy::EveryUpdate => true,
+            ResamplePolicy::BelowEss(fraction) => ess < fraction * n as f64,
+        }
+    }
+}
+
+/// Particles a resampling replaces by draws from a proposal other than the set itself
+/// (random particles, or a sensor's own proposal): the recovery of a filter that lost track.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Injection {
+    None,
+    /// Each new particle independently with this probability (Augmented MCL, Thrun et al.
+    /// Table 8.3; one uniform draw per particle).
+    Probability(f64),
+    /// This many, at slots chosen at random after resampling (after resampling the
+    /// particles are interchangeable).
+    Count(usize),
+}
+
+/// The number of particles a fraction of `m` injects: the nearest whole number.
+pub fn injection_count(fraction: f64, m: usize) -> usize {
+    (fraction * m as f64).round() as usize
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -121,5 +162,17 @@ mod tests {
             0.5
         ));
         assert_eq!(out, [7, 7, 7]);
+    }
+
+    #[test]
+    fn policies_and_injection_counts_by_hand() {
+        assert!(ResamplePolicy::EveryUpdate.due(1000.0, 1000));
+        // ESS 499 of 1000 is below half; 500 is not (strictly below).
+        assert!(ResamplePolicy::BelowEss(0.5).due(499.0, 1000));
+        assert!(!ResamplePolicy::BelowEss(0.5).due(500.0, 1000));
+        assert_eq!(injection_count(0.02, 2000), 40);
+        assert_eq!(injection_count(0.02, 30), 1); // 0.6 rounds up
+        assert_eq!(injection_count(0.02, 20), 0); // 0.4 rounds down
+        assert_eq!(injection_count(0.0, 5000), 0);
     }
 }

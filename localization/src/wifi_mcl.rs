@@ -20,25 +20,22 @@
 //! A particle's likelihood costs one 4 × 4 stencil plus 16 node reads per access point,
 //! independent of the number of training samples.
 
+use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::free_space::FreeSpace;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
-use crate::motion::{apply_increment, OdometryMotionModel};
+use crate::motion::OdometryMotionModel;
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particles::{
-    accumulate_odometry, carried_by_odometry, redraw_gaussian, weighted_mean_covariance,
-    weights_from_log_likelihoods,
-};
-use crate::resampling::low_variance_indices;
+use crate::particle_set::ParticleSet;
+use crate::particles::CarriedEstimate;
+use crate::resampling::Injection;
 use crate::wifi_graph::WifiGraph;
-use atrium_robots::{normalize_angle, Pose2, Reading, WifiScan};
+use atrium_robots::{Pose2, Reading, WifiScan};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
-use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -181,26 +178,15 @@ pub struct WifiMcl {
     cutoff: f64,
     motion: OdometryMotionModel,
     rng: ChaCha8Rng,
-    n: usize,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    th: Vec<f64>,
-    w: Vec<f64>,
-    x2: Vec<f64>,
-    y2: Vec<f64>,
-    th2: Vec<f64>,
-    logw: Vec<f64>,
-    idx: Vec<usize>,
+    /// Room for the larger of the tracking and the global counts.
+    set: ParticleSet,
     /// Per graph access point: the reading of the current scan, NaN when missing.
     z: Vec<f64>,
     /// Free positions to draw random particles from (cell centres on a ≤ 0.25 m lattice).
     free: Vec<[f64; 2]>,
     free_step: f64,
-    pending: Pose2,
     unknown: usize,
-    stamp: f64,
-    mean: Pose2,
-    covariance: Matrix3<f64>,
+    carry: CarriedEstimate,
     /// Sensing mismatch (004 §4.2) of the scans, per access point of the graph.
     fit: FitTracker,
     /// The building's free space (the constraint of `constrain_to_map`).
@@ -252,24 +238,12 @@ impl WifiMcl {
             motion: OdometryMotionModel::new(params.alpha),
             rng: ChaCha8Rng::seed_from_u64(seed),
             cutoff,
-            n: 0,
-            x: vec![0.0; cap],
-            y: vec![0.0; cap],
-            th: vec![0.0; cap],
-            w: vec![0.0; cap],
-            x2: vec![0.0; cap],
-            y2: vec![0.0; cap],
-            th2: vec![0.0; cap],
-            logw: vec![0.0; cap],
-            idx: vec![0; cap],
+            set: ParticleSet::with_capacity(cap),
             z: vec![f64::NAN; n_ap],
             free,
             free_step,
-            pending: Pose2::default(),
             unknown: 0,
-            stamp: 0.0,
-            mean: Pose2::default(),
-            covariance: Matrix3::zeros(),
+            carry: CarriedEstimate::default(),
             fit: FitTracker::default(),
             space,
             off_map: vec![false; cap],
@@ -283,21 +257,11 @@ impl WifiMcl {
 
     fn initialise(&mut self, init: &InitialBelief) -> Result<(), LocalizationError> {
         match init {
-            InitialBelief::Tracking { pose, sigma } => {
-                if !pose.is_finite() || sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
-                    return Err(LocalizationError::InvalidInitialBelief {
-                        field: "pose",
-                        reason: format!("pose and sigma must be finite, got {pose:?} {sigma:?}"),
-                    });
-                }
+            InitialBelief::Tracking { .. } => {
                 let n = self.params.particles;
-                for i in 0..n {
-                    let g = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
-                    self.x[i] = pose.x + sigma[0] * g(&mut self.rng);
-                    self.y[i] = pose.y + sigma[1] * g(&mut self.rng);
-                    self.th[i] = normalize_angle(pose.theta + sigma[2] * g(&mut self.rng));
-                }
-                self.n = n;
+                // A tracking belief needs no extent.
+                self.set
+                    .sample_initial_belief(n, init, [0.0; 4], &mut self.rng)?;
             }
             InitialBelief::Global { regions } => {
                 if !regions.is_empty() {
@@ -311,40 +275,22 @@ impl WifiMcl {
                     });
                 }
                 let n = self.params.global_particles;
-                for i in 0..n {
-                    let (x, y, t) = self.random_pose();
-                    self.x[i] = x;
-                    self.y[i] = y;
-                    self.th[i] = t;
-                }
-                self.n = n;
+                let draw = RandomPoses {
+                    free: &self.free,
+                    step: self.free_step,
+                    space: self.params.constrain_to_map.then_some(&self.space),
+                };
+                self.set.sample(n, &mut self.rng, |rng| {
+                    Ok::<_, LocalizationError>(draw.draw(rng))
+                })?;
             }
         }
-        let n = self.n;
-        self.w[..n].fill(1.0 / n as f64);
         self.compute_estimate();
         Ok(())
     }
 
-    fn random_pose(&mut self) -> (f64, f64, f64) {
-        let p = self.free[self.rng.random_range(0..self.free.len())];
-        let h = 0.5 * self.free_step;
-        let u: f64 = self.rng.random_range(-h..h);
-        let v: f64 = self.rng.random_range(-h..h);
-        let t: f64 = self
-            .rng
-            .random_range(-std::f64::consts::PI..std::f64::consts::PI);
-        let (x, y) = (p[0] + u, p[1] + v);
-        // An anchor near a wall may have its jittered neighbourhood in the wall: keep the
-        // anchor itself then (it is inside).
-        if self.params.constrain_to_map && !self.space.contains(x, y) {
-            return (p[0], p[1], t);
-        }
-        (x, y, t)
-    }
-
     pub fn particle_count(&self) -> usize {
-        self.n
+        self.set.len()
     }
 
     /// Readings (over all scans so far) of access points the graph does not know.
@@ -353,7 +299,7 @@ impl WifiMcl {
     }
 
     pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        (0..self.n).map(|i| (Pose2::new(self.x[i], self.y[i], self.th[i]), self.w[i]))
+        self.set.iter()
     }
 
     /// Loads a scan into `z` (per graph AP, NaN when missing). Returns the readings used.
@@ -408,100 +354,105 @@ impl WifiMcl {
     /// The likelihood of `scan` at every particle, into the weights; then resampling.
     fn sensor_update(&mut self, scan: &WifiScan) {
         self.load_scan(scan);
-        let n = self.n;
+        let n = self.set.len();
         let limit = self.params.max_untrained;
         for i in 0..n {
-            let (l, untrained) = self.log_likelihood_and_untrained(self.x[i], self.y[i]);
-            self.logw[i] = self.params.exponent * l;
+            let p = self.set.pose(i);
+            let (l, untrained) = self.log_likelihood_and_untrained(p.x, p.y);
+            self.set.log_likelihoods_mut()[i] = self.params.exponent * l;
             // Off the graph counts as off the map (applied below, after the fit).
             if limit < 1.0 && untrained > limit {
                 self.off_map[i] = true;
             }
         }
-        self.fit
-            .record(self.stamp, per_unit_log_mean(&self.logw[..n], self.z.len()));
+        self.fit.record(
+            self.carry.stamp,
+            per_unit_log_mean(self.set.log_likelihoods(), self.z.len()),
+        );
         // The map's verdict on the last motion (after the fit: that measures the scan alone).
         let off_map_log = OFF_MAP_WEIGHT.ln();
-        for (l, off) in self.logw[..n].iter_mut().zip(&mut self.off_map[..n]) {
+        let logw = self.set.log_likelihoods_mut();
+        for (l, off) in logw.iter_mut().zip(&mut self.off_map[..n]) {
             if *off {
                 *l += off_map_log;
                 *off = false;
             }
         }
-        weights_from_log_likelihoods(&self.logw[..n], &mut self.w[..n]);
+        self.set.weigh_by_log_likelihoods();
         self.compute_estimate();
-        self.resample();
-    }
-
-    fn resample(&mut self) {
-        let n = self.n;
-        let m = self.params.particles;
-        if !low_variance_indices(&self.w[..n], &mut self.idx[..m], &mut self.rng) {
-            for (k, slot) in self.idx[..m].iter_mut().enumerate() {
-                *slot = k * n / m;
-            }
-        }
-        let p_rand = self.params.random_fraction;
-        for k in 0..m {
-            let (x, y, t) = if p_rand > 0.0 && self.rng.random::<f64>() < p_rand {
-                self.random_pose()
-            } else {
-                let i = self.idx[k];
-                (self.x[i], self.y[i], self.th[i])
-            };
-            self.x2[k] = x;
-            self.y2[k] = y;
-            self.th2[k] = t;
-        }
-        std::mem::swap(&mut self.x, &mut self.x2);
-        std::mem::swap(&mut self.y, &mut self.y2);
-        std::mem::swap(&mut self.th, &mut self.th2);
-        self.n = m;
-        self.w[..m].fill(1.0 / m as f64);
+        let draw = RandomPoses {
+            free: &self.free,
+            step: self.free_step,
+            space: self.params.constrain_to_map.then_some(&self.space),
+        };
+        let inject = match self.params.random_fraction {
+            p if p > 0.0 => Injection::Probability(p),
+            _ => Injection::None,
+        };
+        self.set
+            .resample(self.params.particles, inject, &mut self.rng, |rng| {
+                draw.draw(rng)
+            });
     }
 
     fn apply_motion(&mut self) {
-        let p = self.pending;
-        if p.x == 0.0 && p.y == 0.0 && p.theta == 0.0 {
-            return;
-        }
-        let inc = self.motion.decompose(&Pose2::default(), &p);
         let constrain = self.params.constrain_to_map && !self.space.is_empty();
-        for i in 0..self.n {
-            let (mut x, mut y, th) =
-                apply_increment(self.x[i], self.y[i], self.th[i], &inc, &mut self.rng);
-            // 004 §2.3: the robot is constrained to the graph. A particle that went through
-            // a wall (with `walls`) is weighted down at the next scan; one that ended in a
-            // wall or out of the building is also put back inside (out there the graph is
-            // clamped, the likelihood flat, and nothing would ever pull it back): where it
-            // came from, or, if that was not inside either, the nearest free position. (The
-            // nearest free position of a particle in a wall can be on the wall's far side: a
-            // leak through which clouds wandered into rooms.)
-            let (x0, y0) = (self.x[i], self.y[i]);
-            if constrain && self.params.walls && !self.space.path_clear([x0, y0], [x, y]) {
-                self.off_map[i] = true;
-            }
-            if constrain && !self.space.contains(x, y) {
-                self.off_map[i] = true;
-                if self.space.contains(x0, y0) {
-                    (x, y) = (x0, y0);
-                } else if let Some(q) = self.space.project(x, y) {
-                    (x, y) = (q[0], q[1]);
+        let (space, walls, off_map) = (&self.space, self.params.walls, &mut self.off_map);
+        self.set.propagate_constrained(
+            &self.motion,
+            &mut self.carry.pending,
+            &mut self.rng,
+            |i, [x0, y0], [mut x, mut y, th]| {
+                // 004 §2.3: the robot is constrained to the graph. A particle that went
+                // through a wall (with `walls`) is weighted down at the next scan; one that
+                // ended in a wall or out of the building is also put back inside (out there
+                // the graph is clamped, the likelihood flat, and nothing would ever pull it
+                // back): where it came from, or, if that was not inside either, the nearest
+                // free position. (The nearest free position of a particle in a wall can be
+                // on the wall's far side: a leak through which clouds wandered into rooms.)
+                if constrain && walls && !space.path_clear([x0, y0], [x, y]) {
+                    off_map[i] = true;
                 }
-            }
-            self.x[i] = x;
-            self.y[i] = y;
-            self.th[i] = th;
-        }
-        self.pending = Pose2::default();
+                if constrain && !space.contains(x, y) {
+                    off_map[i] = true;
+                    if space.contains(x0, y0) {
+                        (x, y) = (x0, y0);
+                    } else if let Some(q) = space.project(x, y) {
+                        (x, y) = (q[0], q[1]);
+                    }
+                }
+                [x, y, th]
+            },
+        );
     }
 
     fn compute_estimate(&mut self) {
-        let n = self.n;
-        let (mean, covariance) =
-            weighted_mean_covariance(&self.x[..n], &self.y[..n], &self.th[..n], &self.w[..n]);
-        self.mean = mean;
-        self.covariance = covariance;
+        self.carry
+            .set(self.set.estimate(PointEstimate::WeightedMean));
+    }
+}
+
+/// Random particles of the WiFi filter: a free position, jittered uniformly within half the
+/// lattice step, uniform heading (x, y jitter, then θ). With the map constraint, an anchor
+/// whose jittered neighbourhood is in a wall keeps the anchor itself (it is inside).
+struct RandomPoses<'a> {
+    free: &'a [[f64; 2]],
+    step: f64,
+    space: Option<&'a FreeSpace>,
+}
+
+impl RandomPoses<'_> {
+    fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Pose2 {
+        let p = self.free[rng.random_range(0..self.free.len())];
+        let h = 0.5 * self.step;
+        let u: f64 = rng.random_range(-h..h);
+        let v: f64 = rng.random_range(-h..h);
+        let t: f64 = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+        let (x, y) = (p[0] + u, p[1] + v);
+        if self.space.is_some_and(|s| !s.contains(x, y)) {
+            return Pose2::new(p[0], p[1], t);
+        }
+        Pose2::new(x, y, t)
     }
 }
 
@@ -511,7 +462,7 @@ impl Localizer for WifiMcl {
     }
 
     fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        accumulate_odometry(&mut self.pending, &mut self.stamp, delta);
+        self.carry.accumulate(delta);
         Ok(())
     }
 
@@ -520,14 +471,14 @@ impl Localizer for WifiMcl {
         let Reading::Wifi(scan) = reading else {
             return Ok(());
         };
-        self.stamp = self.stamp.max(scan.stamp);
+        self.carry.observed_at(scan.stamp);
         self.apply_motion();
         self.sensor_update(scan);
         Ok(())
     }
 
     fn estimate(&self) -> Estimate {
-        carried_by_odometry(&self.mean, &self.covariance, &self.pending, self.stamp)
+        self.carry.estimate()
     }
 
     fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
@@ -543,19 +494,10 @@ impl Capabilities for WifiMcl {
     /// Redraws the tracking-size set (`particles`) around `pose`.
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         let n = self.params.particles;
-        let ok = redraw_gaussian(
-            &mut self.x[..n],
-            &mut self.y[..n],
-            &mut self.th[..n],
-            pose,
-            sigma,
-            &mut self.rng,
-        );
+        let ok = self.set.sample_gaussian(n, pose, sigma, &mut self.rng);
         if ok {
-            self.n = n;
-            self.w[..n].fill(1.0 / n as f64);
             self.off_map[..n].fill(false);
-            self.pending = Pose2::default();
+            self.carry.pending = Pose2::default();
             self.compute_estimate();
         }
         ok
@@ -715,9 +657,10 @@ mod tests {
         .unwrap();
         // Half the set 0.5 m south of the north wall, half in the middle, all heading north;
         // the WiFi scan alone prefers the wall-side half (it was taken at y = 18).
-        for i in 0..f.n {
+        for i in 0..f.set.len() {
             if i % 2 == 0 {
-                f.y[i] = 19.5;
+                let p = f.set.pose(i);
+                f.set.set_pose(i, Pose2::new(p.x, 19.5, p.theta));
             }
         }
         drive(&mut f, Pose2::default(), Pose2::new(1.0, 0.0, 0.0), 1.0);

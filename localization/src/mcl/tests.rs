@@ -1,4 +1,5 @@
 use super::*;
+use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 const RES: f64 = 0.05;
