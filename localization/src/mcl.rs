@@ -2,6 +2,7 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
+use crate::beam_model::{beam_probability, cast_ray, BeamModelParams};
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::initial_belief::gaussian_pose;
@@ -14,6 +15,7 @@ use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, Odomet
 use crate::motion::OdometryMotionModel;
 use crate::particle_set::ParticleSet;
 use crate::particles::CarriedEstimate;
+use crate::resampling::ResamplePolicy;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -76,6 +78,31 @@ pub struct MclParams {
     /// the cluster of 0.5 m × 10° bins with the most weight) or `"weighted_mean"` of the whole
     /// set, which lands between the modes of a split cloud ([004] §3's open-area errors).
     pub estimate: PointEstimate,
+    /// The laser model: `"likelihood_field"` (default; [Thrun 2005] §6.4) or `"beam"`
+    /// ([Thrun 2005] §6.3: every beam ray-cast on the map, max-range readings included;
+    /// about ten times slower per beam, see `beam_model`).
+    pub sensor_model: SensorModel,
+    /// Beam model: weight of unexpected short readings. Default 0.1 (ROS amcl's).
+    pub z_short: f64,
+    /// Beam model: weight of max-range failures. Default 0.05 (ROS amcl's).
+    pub z_max: f64,
+    /// Beam model: rate of the short-reading exponential, 1/m. Default 0.1 (ROS amcl's).
+    pub lambda_short: f64,
+    /// Resample only when the effective sample size falls below this fraction of the
+    /// particles; between resamplings the weights carry the evidence of every scan. Default 0:
+    /// after every update, as ROS amcl. Resampling every scan makes the weight of each of
+    /// several hypotheses a random walk, and a globally localizing filter can lose the true
+    /// one before the robot sees what tells them apart ([Thrun 2005] §4.3.4).
+    pub resample_ess: f64,
+}
+
+/// Which laser model an MCL filter weighs particles with.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorModel {
+    #[default]
+    LikelihoodField,
+    Beam,
 }
 
 impl Default for MclParams {
@@ -98,11 +125,37 @@ impl Default for MclParams {
             update_min_d: 0.0,
             update_min_a: 0.0,
             estimate: PointEstimate::default(),
+            sensor_model: SensorModel::default(),
+            z_short: 0.1,
+            z_max: 0.05,
+            lambda_short: 0.1,
+            resample_ess: 0.0,
         }
     }
 }
 
 impl MclParams {
+    /// The beam model's parameters (z_hit, z_rand and sigma_hit are the field's).
+    pub fn beam_params(&self) -> BeamModelParams {
+        BeamModelParams {
+            z_hit: self.z_hit,
+            z_short: self.z_short,
+            z_max: self.z_max,
+            z_rand: self.z_rand,
+            sigma_hit: self.sigma_hit,
+            lambda_short: self.lambda_short,
+        }
+    }
+
+    /// When the filter resamples.
+    pub fn resample_policy(&self) -> ResamplePolicy {
+        if self.resample_ess > 0.0 {
+            ResamplePolicy::BelowEss(self.resample_ess)
+        } else {
+            ResamplePolicy::EveryUpdate
+        }
+    }
+
     /// Checks every field; the error names the field and the offending value.
     pub fn validate(&self) -> Result<(), String> {
         let positive = |name: &str, v: f64| {
@@ -171,6 +224,13 @@ impl MclParams {
         }
         non_negative("update_min_d", self.update_min_d)?;
         non_negative("update_min_a", self.update_min_a)?;
+        if !(self.resample_ess.is_finite() && (0.0..=1.0).contains(&self.resample_ess)) {
+            return Err(format!(
+                "resample_ess must be a fraction in [0, 1], got {}",
+                self.resample_ess
+            ));
+        }
+        self.beam_params().validate()?;
         Ok(())
     }
 
@@ -488,38 +548,35 @@ impl Mcl {
             .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
     }
 
+    /// For the beam model: up to max_beams beams with a reading, max-range ones included
+    /// (they say "nothing within range here", which the likelihood field cannot use), evenly
+    /// spread; `beam_x` holds their angles in the laser frame, `beam_y` their ranges.
+    fn select_beams_with_max_range(&mut self, scan: &LaserScan) -> usize {
+        self.beam_x.clear();
+        self.beam_y.clear();
+        let usable = |r: f64| r.is_finite() && r >= scan.range_min;
+        let (bx, by) = (&mut self.beam_x, &mut self.beam_y);
+        evenly_spread(&scan.ranges, usable, self.params.max_beams, |i| {
+            bx.push(scan.beam_angle(i));
+            by.push(scan.ranges[i].min(scan.range_max));
+        });
+        self.beam_x.len()
+    }
+
     /// Picks up to max_beams valid beams, evenly spread over the valid ones, and stores
     /// their endpoints in the base frame. Returns how many.
     fn select_beams(&mut self, scan: &LaserScan) -> usize {
         self.beam_x.clear();
         self.beam_y.clear();
         let valid = |r: f64| r.is_finite() && r >= scan.range_min && r < scan.range_max;
-        let n_valid = scan.ranges.iter().filter(|r| valid(**r)).count();
-        if n_valid == 0 {
-            return 0;
-        }
-        let m = self.params.max_beams.min(n_valid);
-        let mut taken = 0usize;
-        let mut next = 0usize;
-        let mut v = 0usize;
-        for (i, &r) in scan.ranges.iter().enumerate() {
-            if !valid(r) {
-                continue;
-            }
-            if v == next {
-                let a = scan.beam_angle(i);
-                let p = scan.mount.transform_point([r * a.cos(), r * a.sin()]);
-                self.beam_x.push(p[0]);
-                self.beam_y.push(p[1]);
-                taken += 1;
-                if taken == m {
-                    break;
-                }
-                next = taken * n_valid / m;
-            }
-            v += 1;
-        }
-        taken
+        let (bx, by) = (&mut self.beam_x, &mut self.beam_y);
+        evenly_spread(&scan.ranges, valid, self.params.max_beams, |i| {
+            let (a, r) = (scan.beam_angle(i), scan.ranges[i]);
+            let p = scan.mount.transform_point([r * a.cos(), r * a.sin()]);
+            bx.push(p[0]);
+            by.push(p[1]);
+        });
+        self.beam_x.len()
     }
 
     fn sensor_update(&mut self, scan: &LaserScan) {
@@ -529,20 +586,38 @@ impl Mcl {
         if r != self.field.params().range_max && r.is_finite() && r > 0.0 {
             Arc::make_mut(&mut self.field).set_range_max(r);
         }
-        let nb = self.select_beams(scan);
+        let nb = match self.params.sensor_model {
+            SensorModel::LikelihoodField => self.select_beams(scan),
+            SensorModel::Beam => self.select_beams_with_max_range(scan),
+        };
         if nb == 0 {
             return;
         }
         let field = &self.field;
         let (bx, by) = (&self.beam_x[..nb], &self.beam_y[..nb]);
-        self.set.reweight_log(|px, py, th| {
-            let (s, c) = th.sin_cos();
-            let mut l = 0.0;
-            for (&u, &v) in bx.iter().zip(by) {
-                l += field.log_likelihood(px + c * u - s * v, py + s * u + c * v);
+        match self.params.sensor_model {
+            SensorModel::LikelihoodField => self.set.reweight_log(|px, py, th| {
+                let (s, c) = th.sin_cos();
+                let mut l = 0.0;
+                for (&u, &v) in bx.iter().zip(by) {
+                    l += field.log_likelihood(px + c * u - s * v, py + s * u + c * v);
+                }
+                l
+            }),
+            SensorModel::Beam => {
+                let (bp, mount, range_max) = (self.params.beam_params(), scan.mount, r);
+                self.set.reweight_log(|px, py, th| {
+                    let o = Pose2::new(px, py, th).compose(&mount);
+                    let mut l = 0.0;
+                    for (&a, &z) in bx.iter().zip(by) {
+                        let (s, c) = (o.theta + a).sin_cos();
+                        let z_star = cast_ray(field, o.x, o.y, c, s, range_max);
+                        l += beam_probability(z, z_star, range_max, &bp).ln();
+                    }
+                    l
+                })
             }
-            l
-        });
+        }
         let n = self.set.len();
         let inv_nb = 1.0 / nb as f64;
         let mut per_beam = 0.0;
@@ -565,7 +640,9 @@ impl Mcl {
             }
         }
         self.compute_estimate();
-        self.resample();
+        if self.params.resample_policy().due(self.set.ess(), n) {
+            self.resample();
+        }
     }
 
     /// KLD-sized low-variance resampling with random injection (see
@@ -587,6 +664,33 @@ impl Mcl {
     /// The estimate `params.estimate` asks for, and its covariance.
     fn compute_estimate(&mut self) {
         self.carry.set(self.set.estimate(self.params.estimate));
+    }
+}
+
+/// Calls `take` with the indices of up to `max` of the `ranges` that are `usable`, evenly
+/// spread over the usable ones (the first always among them), in order.
+fn evenly_spread(
+    ranges: &[f64],
+    usable: impl Fn(f64) -> bool,
+    max: usize,
+    mut take: impl FnMut(usize),
+) {
+    let n_usable = ranges.iter().filter(|r| usable(**r)).count();
+    let m = max.min(n_usable);
+    let (mut taken, mut next, mut v) = (0usize, 0usize, 0usize);
+    for (i, &r) in ranges.iter().enumerate() {
+        if taken == m {
+            break;
+        }
+        if !usable(r) {
+            continue;
+        }
+        if v == next {
+            take(i);
+            taken += 1;
+            next = taken * n_usable / m;
+        }
+        v += 1;
     }
 }
 

@@ -211,6 +211,68 @@ fn tracking_follows_the_robot_to_within_ten_centimetres() {
 }
 
 #[test]
+fn the_beam_model_tracks_the_robot_too() {
+    let grid = asymmetric_room();
+    let start = Pose2::new(1.0, 1.0, 0.0);
+    let truth = route(start, &TOUR);
+    let init = InitialBelief::Tracking {
+        pose: Pose2::new(1.15, 0.9, 0.05),
+        sigma: [0.2, 0.2, 0.1],
+    };
+    let params = MclParams {
+        sensor_model: SensorModel::Beam,
+        ..MclParams::default()
+    };
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 7).unwrap();
+    let errors = drive(&mut mcl, &grid, &truth, 11);
+    let last = *errors.last().unwrap();
+    let worst_after_start = errors[20..].iter().copied().fold(0.0, f64::max);
+    eprintln!("beam model: final {last:.3} m, worst after 20 steps {worst_after_start:.3} m");
+    assert!(last < 0.1, "final error {last}");
+    assert!(worst_after_start < 0.2, "worst error {worst_after_start}");
+}
+
+#[test]
+fn resampling_below_an_ess_fraction_still_tracks() {
+    // Weights carried across updates (the prior weights enter the log reweighting) keep the
+    // filter on the robot; the default stays amcl's resampling after every update.
+    let grid = asymmetric_room();
+    let start = Pose2::new(1.0, 1.0, 0.0);
+    let truth = route(start, &TOUR);
+    let init = InitialBelief::Tracking {
+        pose: Pose2::new(1.15, 0.9, 0.05),
+        sigma: [0.2, 0.2, 0.1],
+    };
+    let params = MclParams {
+        resample_ess: 0.5,
+        ..MclParams::default()
+    };
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 7).unwrap();
+    let errors = drive(&mut mcl, &grid, &truth, 11);
+    assert!(*errors.last().unwrap() < 0.1, "{errors:?}");
+    assert_eq!(
+        MclParams::default().resample_policy(),
+        crate::resampling::ResamplePolicy::EveryUpdate
+    );
+}
+
+#[test]
+fn beams_are_spread_evenly_over_the_usable_ones() {
+    let ranges = [1.0, f64::NAN, 2.0, 3.0, 8.0, 4.0, 5.0, 6.0];
+    let usable = |r: f64| r.is_finite() && r < 8.0;
+    let mut got = Vec::new();
+    super::evenly_spread(&ranges, usable, 3, |i| got.push(i));
+    // Usable: indices 0, 2, 3, 5, 6, 7 (six); three of them: the 0th, 2nd and 4th.
+    assert_eq!(got, vec![0, 3, 6]);
+    got.clear();
+    super::evenly_spread(&ranges, usable, 100, |i| got.push(i));
+    assert_eq!(got, vec![0, 2, 3, 5, 6, 7]);
+    got.clear();
+    super::evenly_spread(&[f64::NAN], usable, 3, |i| got.push(i));
+    assert!(got.is_empty());
+}
+
+#[test]
 fn global_localization_converges_on_an_asymmetric_map() {
     let grid = asymmetric_room();
     let start = Pose2::new(6.0, 2.5, 2.0);
@@ -531,6 +593,13 @@ fn params_defaults_deserialize_and_validate() {
     bad(|p| p.grid_resolution = -0.05, "grid_resolution");
     bad(|p| p.alpha_slow = 0.5, "alpha_slow");
     bad(|p| p.update_min_a = f64::INFINITY, "update_min_a");
+    bad(|p| p.resample_ess = 1.5, "resample_ess");
+    bad(|p| p.z_short = -1.0, "z_short");
+    bad(|p| p.lambda_short = 0.0, "lambda_short");
+    let beam: MclParams =
+        serde_json::from_str(r#"{"sensor_model": "beam", "resample_ess": 0.5}"#).unwrap();
+    assert_eq!(beam.sensor_model, SensorModel::Beam);
+    assert!(serde_json::from_str::<MclParams>(r#"{"sensor_model": "rays"}"#).is_err());
     // Recovery off is valid.
     let off = MclParams {
         alpha_slow: 0.0,
