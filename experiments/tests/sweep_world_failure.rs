@@ -413,3 +413,34 @@ fn shards_merge_to_the_same_failure_curves() {
     );
     assert_ne!(Sweep::load(&g).unwrap().hash, sweep.hash);
 }
+
+#[test]
+fn a_training_scenario_on_the_same_generator_file_surveys_each_cells_world() {
+    // The atrium study's WiFi survey drives the study's generator file: a cell's
+    // [world_params] reach the survey, so each width is surveyed in its own world.
+    let study = Scenario::load(&root().join("scenarios/atrium_study.toml")).unwrap();
+    let survey_file = root().join("scenarios/atrium_study_survey.toml");
+    let atrium_height = |s: &Scenario| {
+        let r = s.world.regions.iter().find(|r| r.name == "atrium").unwrap();
+        let ys: Vec<f64> = r.polygon.iter().map(|p| p[1]).collect();
+        ys.iter().copied().fold(f64::MIN, f64::max) - ys.iter().copied().fold(f64::MAX, f64::min)
+    };
+    assert_eq!(
+        atrium_height(&study.load_training(&survey_file).unwrap()),
+        20.0
+    );
+    for w in [10.0, 30.0] {
+        let mut cell = study.clone();
+        cell.world_params
+            .insert("atrium_width".into(), toml::Value::Float(w));
+        let survey = cell.load_training(&survey_file).unwrap();
+        assert_eq!(atrium_height(&survey), w);
+        assert_eq!(
+            survey.world_params["atrium_length"],
+            toml::Value::Float(40.0)
+        );
+    }
+    // So the bundled study, whose base has a WiFi localizer, is a valid world sweep.
+    let sweep = Sweep::load(&root().join("scenarios/sweeps/atrium_size.toml")).unwrap();
+    assert_eq!(sweep.cells(), 7);
+}

@@ -517,6 +517,14 @@ fn heading(file: &Path, field: &str, theta: f64) -> Result<f64, ScenarioError> {
     Ok(atrium_robots::normalize_angle(theta))
 }
 
+/// Whether two paths name the same file (compared as written when either cannot be resolved).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}
+
 /// The scenario's world: `world_file` as written, or, with `[world_params]`, the world its
 /// generator makes with those parameters set (a world that is not a generator file has none
 /// to set, and is refused). Errors of a parameter name the scenario's `world_params.<key>`,
@@ -602,6 +610,32 @@ impl Scenario {
             err,
         })?;
         Self::from_toml_str(&text, path)
+    }
+
+    /// The training scenario at `path` that a localizer of this scenario learns from (a WiFi
+    /// survey, a chooser's training runs). When it drives the same generated world as this
+    /// scenario (the same generator file), it gets this scenario's `[world_params]` on top of
+    /// its own: a sweep cell that widens the atrium surveys the widened atrium, not the
+    /// generator's default. A training scenario on another world file keeps its own world.
+    pub fn load_training(&self, path: &Path) -> Result<Scenario, ScenarioError> {
+        let training = Scenario::load(path)?;
+        if self.world_params.is_empty() || !same_file(&training.world_file, &self.world_file) {
+            return Ok(training);
+        }
+        let mut doc: toml::Table =
+            toml::from_str(&training.text).map_err(|e| ScenarioError::Parse {
+                file: path.to_path_buf(),
+                msg: e.to_string(),
+            })?;
+        let mut params = match doc.remove("world_params") {
+            Some(toml::Value::Table(t)) => t,
+            _ => toml::Table::new(),
+        };
+        for (k, v) in &self.world_params {
+            params.insert(k.clone(), v.clone());
+        }
+        doc.insert("world_params".into(), toml::Value::Table(params));
+        Scenario::from_toml_str(&toml::to_string(&doc).unwrap_or_default(), path)
     }
 
     /// Parses and validates scenario text; relative paths resolve against `file`'s folder.

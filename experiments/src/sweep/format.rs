@@ -21,8 +21,10 @@
 //! localizer derives from the world (grids, likelihood fields, appearance maps) is keyed by
 //! the world's content (`atrium_scenarios::map_cache`), so it is built per cell and shared by
 //! the cell's trials. Localizers that learn from another scenario file (`training = "<file>"`:
-//! the WiFi survey, the data-driven chooser) would learn on the file's own world, not the
-//! cell's, and are refused with a world axis.
+//! the WiFi survey, the data-driven chooser) learn on the cell's world when that file drives
+//! the same generator file (it gets the cell's `[world_params]`, and its learnt graph or
+//! training is memoised per cell); a training file on another world is refused with a world
+//! axis, since it would learn a building the cell does not have.
 //!
 //! An axis's path may also be written as nested tables (`[axes.odometry] radius_error = [..]`);
 //! every leaf array is one axis, and each parameter may have one axis only (two spellings of
@@ -1022,11 +1024,20 @@ impl Sweep {
                 .chain(&self.extra_localizers);
             for l in tables {
                 if let Some(t) = l.get("training").and_then(|t| t.as_str()) {
+                    // A training scenario on the same generator file learns on each cell's
+                    // world (`Scenario::load_training`); on another world it would learn a
+                    // building the cell does not have.
+                    if training_world(&dir.join(t))
+                        .is_some_and(|w| atrium_scenarios::scenario::same_file(&w, world_file))
+                    {
+                        continue;
+                    }
                     let name = l.get("name").and_then(|n| n.as_str()).unwrap_or("?");
                     return Err(refuse(format!(
-                        "localizer {name:?} learns from another scenario (training = {t:?}), \
-                         which generates its own world, not this cell's: a WiFi survey or \
-                         chooser training does not follow a world axis yet{at_line}"
+                        "localizer {name:?} learns from another scenario (training = {t:?}) \
+                         whose world is not the base scenario's generator file {}, so its \
+                         survey or training would not follow the world axis{at_line}",
+                        world_file.display()
                     )));
                 }
             }
@@ -1085,6 +1096,15 @@ impl Sweep {
         }
         Ok(collector)
     }
+}
+
+/// The world file a training scenario at `path` names, resolved against its folder (`None`
+/// when the file or its `world` key cannot be read).
+fn training_world(path: &Path) -> Option<std::path::PathBuf> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let doc: toml::Table = toml::from_str(&text).ok()?;
+    let world = doc.get("world")?.as_str()?;
+    Some(path.parent().unwrap_or(Path::new(".")).join(world))
 }
 
 #[cfg(test)]

@@ -224,14 +224,18 @@ impl RunObserver for Collect {
 
 /// Runs `path` `runs` times (seeds derived from its own seed and the run index), without its
 /// choosers and expectations. Memoised per process (see the module docs).
+///
+/// The training scenario drives `owner`'s generated world when it names the same generator
+/// file ([`Scenario::load_training`]), so a sweep cell trains on its own world.
 pub fn train(
     registry: &LocalizerRegistry,
+    owner: &Scenario,
     path: &Path,
     runs: usize,
 ) -> Result<Arc<Training>, String> {
     type Slot = Arc<OnceLock<Result<Arc<Training>, String>>>;
     static CACHE: OnceLock<Mutex<HashMap<String, Slot>>> = OnceLock::new();
-    let mut scenario = Scenario::load(path).map_err(|e| e.to_string())?;
+    let mut scenario = owner.load_training(path).map_err(|e| e.to_string())?;
     // The registry's kinds are part of the key: the same text may name a user's kind.
     let key = format!(
         "{}\n{}\n{runs}\n{:?}",
@@ -596,7 +600,7 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
     let training_of = |runs: usize| -> Result<Option<Arc<Training>>, ScenarioError> {
         match text("training")? {
             None => Ok(None),
-            Some(t) => train(registry, &dir.join(&t), runs)
+            Some(t) => train(registry, scenario, &dir.join(&t), runs)
                 .map(Some)
                 .map_err(|m| err("training", m)),
         }
@@ -723,7 +727,7 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
                         // The map's size, from the training scenario's world, before the
                         // training runs.
                         if let Some(t) = text("training")? {
-                            if let Ok(s) = Scenario::load(&dir.join(&t)) {
+                            if let Ok(s) = scenario.load_training(&dir.join(&t)) {
                                 let (min, max) = s.world.bounds();
                                 ErrorMap::check_size(min, max, res, s.localizers.len()).map_err(
                                     |m| {

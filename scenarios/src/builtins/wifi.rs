@@ -104,13 +104,16 @@ pub fn learn_from_survey(
         .map_err(|e| ScenarioError::field(&survey_scenario.file, "wifi", e.to_string()))
 }
 
+/// The graph learnt from the survey scenario at `path`, on `owner`'s generated world when the
+/// survey drives the same generator file ([`Scenario::load_training`]).
 fn graph_from_training(
+    owner: &Scenario,
     path: &Path,
     params: &WifiGraphParams,
-    file: &Path,
     field: &str,
 ) -> Result<Arc<WifiGraph>, ScenarioError> {
-    let survey_scenario = Scenario::load(path)?;
+    let file = &owner.file;
+    let survey_scenario = owner.load_training(path)?;
     // The graph's size, from the survey world's bounds and access points, before the survey.
     let (lo, hi) = survey_scenario.world.bounds();
     params
@@ -201,7 +204,7 @@ pub fn build_wifi_localizer(
     let dir = file.parent().unwrap_or(Path::new("."));
     let graph =
         match (training, graph_file) {
-            (Some(t), None) => graph_from_training(&dir.join(t), &learn, file, &field)?,
+            (Some(t), None) => graph_from_training(scenario, &dir.join(t), &learn, &field)?,
             (None, Some(g)) => Arc::new(
                 WifiGraph::load(&dir.join(g))
                     .map_err(|msg| ScenarioError::field(file, format!("{field}.graph"), msg))?,
