@@ -1,6 +1,6 @@
-//! Diagnosis of the landmark filter on a node route (issue 16), `#[ignore]`d: run with
-//! `DIAG_SCENARIO=<scenario> DIAG_SEEDS=1,2 cargo test --release -p atrium-tests --test
-//! landmark_node_diagnosis -- --ignored --nocapture`. `diagnose`: per node, γ against γ_n,
+//! Diagnosis of the landmark filter on a node route (issue 16): run with
+//! `DIAG_SCENARIO=<scenario> DIAG_SEEDS=1,2 cargo run --release -p atrium-tests --example
+//! landmark_node_diagnosis -- diagnose|gamma_map|approach_profile`. `diagnose`: per node, γ against γ_n,
 //! the true distance when γ first fell below γ_n and when odometry entered ρ, and the heading
 //! error at the node; `gamma_map`: settled γ on rings around each node (`DIAG_HR`, `DIAG_MR`);
 //! `approach_profile`: γ along the teach-run approach (002 Fig. 4c).
@@ -71,8 +71,6 @@ impl RunObserver for Truth {
     }
 }
 
-#[test]
-#[ignore]
 fn diagnose() {
     let path = std::env::var("DIAG_SCENARIO").unwrap_or_else(|_| {
         atrium_scenarios::bundled_scenarios_dir()
@@ -176,8 +174,6 @@ fn diagnose() {
 
 /// Settled γ around each node at the leg's heading: how far from the node the landmark still
 /// "matches" (max / min over 16 directions per ring).
-#[test]
-#[ignore]
 fn gamma_map() {
     use atrium_localization::landmark_filter::{LandmarkSignature, RecursiveLandmarkModel};
     let path = std::env::var("DIAG_SCENARIO").unwrap();
@@ -235,8 +231,6 @@ fn gamma_map() {
 }
 
 /// γ along the teach-run approach to each node (the recursion as the filter runs it).
-#[test]
-#[ignore]
 fn approach_profile() {
     use atrium_localization::landmark_filter::{LandmarkSignature, RecursiveLandmarkModel};
     let path = std::env::var("DIAG_SCENARIO").unwrap();
@@ -284,5 +278,17 @@ fn approach_profile() {
             }
         }
         println!("{line}");
+    }
+}
+
+fn main() {
+    match std::env::args().nth(1).as_deref() {
+        Some("diagnose") => diagnose(),
+        Some("gamma_map") => gamma_map(),
+        Some("approach_profile") => approach_profile(),
+        other => {
+            eprintln!("usage: landmark_node_diagnosis diagnose|gamma_map|approach_profile (got {other:?})");
+            std::process::exit(2);
+        }
     }
 }
