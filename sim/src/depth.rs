@@ -12,6 +12,7 @@
 //! (x, y, z) = d · (1, −(u − cx)/fx, −(v − cy)/fy) in the camera's REP-103 frame.
 
 use crate::error::SimError;
+use crate::frustum::{FrustumCaster, Hit, Pinhole};
 use crate::scene::{iso_to_pose, LaserSurface, Scene};
 use atrium_robots::{DepthCameraSpec, DepthImage, Mount3};
 use nalgebra::Isometry3;
@@ -38,6 +39,8 @@ pub struct DepthCamera {
     truth: Vec<f32>,
     depth: Vec<f32>,
     intrinsics: (f64, f64, f64, f64),
+    pinhole: Pinhole,
+    caster: FrustumCaster,
     rng: ChaCha8Rng,
 }
 
@@ -88,6 +91,16 @@ impl DepthCamera {
             dirs,
             axial,
             intrinsics: (fx, fy, cx, cy),
+            pinhole: Pinhole {
+                width: w,
+                height: h,
+                fx,
+                fy,
+                cx,
+                cy,
+                min_axial: min_axial as f64,
+            },
+            caster: FrustumCaster::new(),
             spec,
             rng,
         })
@@ -99,7 +112,30 @@ impl DepthCamera {
 
     /// Casts every pixel's ray with the base frame at `base` (world frame) into the truth
     /// buffer: the depth along the optical axis, or 0 where the camera returns nothing.
+    /// Culled per frame (`frustum.rs`); gives exactly what [`DepthCamera::cast_reference`]
+    /// gives.
     pub fn cast(&mut self, scene: &Scene, base: &Pose) {
+        let cam = *base * self.mount;
+        let filter = QueryFilter::default().groups(Scene::sensor_groups());
+        let query = scene.physics.query_pipeline_with_filter(filter);
+        let (lo, hi) = (self.spec.range_min as f32, self.spec.range_max as f32);
+        let cos_max = self.cos_max_incidence;
+        let (truth, axial) = (&mut self.truth, &self.axial);
+        self.caster.render(
+            &query,
+            &cam,
+            &self.pinhole,
+            &self.dirs,
+            self.max_ray,
+            |i, dir, hit| {
+                truth[i] = pixel_depth(scene, dir, hit, axial[i], lo, hi, cos_max);
+            },
+        );
+    }
+
+    /// [`DepthCamera::cast`] with one query-pipeline cast per pixel (the reference the
+    /// culled renderer must reproduce bit for bit).
+    pub fn cast_reference(&mut self, scene: &Scene, base: &Pose) {
         let cam = *base * self.mount;
         let filter = QueryFilter::default().groups(Scene::sensor_groups());
         let query = scene.physics.query_pipeline_with_filter(filter);
@@ -107,21 +143,14 @@ impl DepthCamera {
         for ((t, d), &c) in self.truth.iter_mut().zip(&self.dirs).zip(&self.axial) {
             let dir = cam.rotation * *d;
             let ray = Ray::new(cam.translation, dir);
-            *t = match query.cast_ray_and_get_normal(&ray, self.max_ray, true) {
-                None => 0.0,
-                Some((h, hit)) => {
-                    let z = hit.time_of_impact * c;
-                    let surface = scene.laser_surface(scene.physics.colliders[h].user_data);
-                    let glass = matches!(surface, LaserSurface::Glass { .. });
-                    let grazing = dir.dot(hit.normal).abs() < self.cos_max_incidence;
-                    if glass || grazing || z < lo || z > hi {
-                        0.0
-                    } else {
-                        z
-                    }
-                }
-            };
+            let hit = query.cast_ray_and_get_normal(&ray, self.max_ray, true);
+            *t = pixel_depth(scene, dir, hit, c, lo, hi, self.cos_max_incidence);
         }
+    }
+
+    /// Pixels of the last [`DepthCamera::cast`] that fell back to the query pipeline.
+    pub fn fallback_pixels(&self) -> usize {
+        self.caster.fallbacks()
     }
 
     /// Noiseless depths of the last cast (0 = invalid), row-major.
@@ -162,6 +191,34 @@ impl DepthCamera {
             cx,
             cy,
             depth: self.depth.clone(),
+        }
+    }
+}
+
+/// The depth a pixel reports for its first hit: 0 on nothing, glass, grazing incidence or out
+/// of range; else the distance along the optical axis (`c` = cosine to the axis).
+#[inline]
+fn pixel_depth(
+    scene: &Scene,
+    dir: Vector,
+    hit: Option<Hit>,
+    c: f32,
+    lo: f32,
+    hi: f32,
+    cos_max_incidence: f32,
+) -> f32 {
+    match hit {
+        None => 0.0,
+        Some((h, hit)) => {
+            let z = hit.time_of_impact * c;
+            let surface = scene.laser_surface(scene.physics.colliders[h].user_data);
+            let glass = matches!(surface, LaserSurface::Glass { .. });
+            let grazing = dir.dot(hit.normal).abs() < cos_max_incidence;
+            if glass || grazing || z < lo || z > hi {
+                0.0
+            } else {
+                z
+            }
         }
     }
 }

@@ -9,6 +9,7 @@ pub mod depth;
 pub mod encoders;
 pub mod error;
 pub mod fixtures;
+pub mod frustum;
 pub mod landmarks;
 pub mod laser;
 pub mod node_controller;
