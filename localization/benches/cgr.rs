@@ -96,7 +96,7 @@ fn benches(c: &mut Criterion) {
     let pose = Pose2::new(14.0, 20.0, 0.0);
     let reading = Reading::Laser(scan(&world, pose));
     let mut g = c.benchmark_group("cgr");
-    for particles in [100usize, 300] {
+    for particles in [100usize, 150, 300] {
         let params = CgrParams {
             particles,
             ..Default::default()

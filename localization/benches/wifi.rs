@@ -2,15 +2,19 @@
 //! points (aim: under 30 s on one core), and the cost of one particle's WiFi likelihood for
 //! graphs learnt from 1,000, 10,000 and 100,000 samples (it must not depend on the count).
 //!
+//! Also one whole filter update (motion, likelihood of every particle, estimate, resampling)
+//! with 1,000 particles on the graph learnt from 10,000 samples (issue 19).
+//!
 //! `cargo bench -p atrium-localization --bench wifi`. Learning is timed once per size with
 //! `Instant` (a criterion group would repeat a 10 s job ten times); the likelihood with
-//! criterion.
+//! criterion. A filter argument skips the learning of groups it does not select
+//! (`cargo bench -p atrium-localization --bench wifi -- wifi_update`).
 
 use atrium_localization::mcl::InitialBelief;
 use atrium_localization::wifi_graph::{WifiGraph, WifiGraphParams};
 use atrium_localization::wifi_mcl::{WifiMcl, WifiMclParams};
-use atrium_localization::Localizer;
-use atrium_robots::{Reading, WifiReading, WifiScan};
+use atrium_localization::{Localizer, OdometryDelta};
+use atrium_robots::{Pose2, Reading, WifiReading, WifiScan};
 use atrium_worlds::{Cell, OccupancyGrid};
 use criterion::{criterion_group, Criterion};
 use rand::{Rng, SeedableRng};
@@ -103,11 +107,20 @@ fn grid() -> OccupancyGrid {
     }
 }
 
-fn likelihood(c: &mut Criterion) {
-    let mut group = c.benchmark_group("wifi_likelihood_per_particle");
-    let p = [23.3, 17.6];
-    let scan = WifiScan {
-        stamp: 0.0,
+/// Whether the command line's filter (criterion's positional argument) can select a benchmark
+/// named `name`, so an unselected group does not learn its graphs.
+fn selected(name: &str) -> bool {
+    let filters: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()))
+}
+
+/// The scan heard at `p`: every AP but one in four, rounded like a receiver reports it.
+fn scan_at(p: [f64; 2], stamp: f64) -> WifiScan {
+    WifiScan {
+        stamp,
         sensor: "wifi".into(),
         readings: (0..APS)
             .filter(|a| a % 4 != 3) // some missing
@@ -117,7 +130,63 @@ fn likelihood(c: &mut Criterion) {
                 rssi_dbm: rssi(a, p).round(),
             })
             .collect(),
-    };
+    }
+}
+
+/// One filter update with 1,000 particles: the motion step (a 0.1 m back-and-forth move), the
+/// likelihood of every particle, the estimate and resampling.
+fn update(c: &mut Criterion) {
+    if !selected("wifi_update/1000_particles") {
+        return;
+    }
+    let (g, _) = learn(10_000);
+    let p = [23.3, 17.6];
+    let reading = Reading::Wifi(scan_at(p, 0.0));
+    let mut f = WifiMcl::new(
+        "wifi",
+        WifiMclParams {
+            particles: 1000,
+            ..Default::default()
+        },
+        Arc::new(g),
+        &grid(),
+        InitialBelief::Tracking {
+            pose: Pose2::new(p[0], p[1], 0.0),
+            sigma: [1.0, 1.0, 0.1],
+        },
+        1,
+    )
+    .unwrap();
+    let mut group = c.benchmark_group("wifi_update");
+    let mut odom = Pose2::default();
+    let mut k = 0u64;
+    group.bench_function("1000_particles", |b| {
+        b.iter(|| {
+            let step = if k & 1 == 0 { 0.1 } else { -0.1 };
+            k += 1;
+            let next = odom.compose(&Pose2::new(step, 0.0, 0.0));
+            f.predict(&OdometryDelta {
+                stamp: k as f64,
+                from: odom,
+                to: next,
+            })
+            .unwrap();
+            odom = next;
+            f.update(black_box(&reading)).unwrap();
+            black_box(f.estimate())
+        })
+    });
+    assert_eq!(f.particle_count(), 1000);
+    group.finish();
+}
+
+fn likelihood(c: &mut Criterion) {
+    if !selected("wifi_likelihood_per_particle/trained_on_100000") {
+        return;
+    }
+    let mut group = c.benchmark_group("wifi_likelihood_per_particle");
+    let p = [23.3, 17.6];
+    let scan = scan_at(p, 0.0);
     for n in [1_000usize, 10_000, 100_000] {
         let (g, secs) = learn(n);
         eprintln!("graph learning, {n} samples x {APS} APs: {secs:.2} s (one core)");
@@ -144,7 +213,7 @@ fn likelihood(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, likelihood);
+criterion_group!(benches, update, likelihood);
 
 fn main() {
     benches();

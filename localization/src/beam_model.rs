@@ -146,7 +146,6 @@ pub fn cast_ray(field: &LikelihoodField, x: f64, y: f64, c: f64, s: f64, range_m
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::likelihood_field::LikelihoodFieldParams;
     use atrium_worlds::{Cell, OccupancyGrid};
 
     fn params() -> BeamModelParams {
@@ -213,17 +212,7 @@ mod tests {
             height: h,
             cells,
         };
-        LikelihoodField::new(
-            &grid,
-            LikelihoodFieldParams {
-                z_hit: 0.95,
-                z_rand: 0.05,
-                sigma_hit: 0.05,
-                max_dist: 2.0,
-                range_max: 8.0,
-            },
-        )
-        .unwrap()
+        LikelihoodField::new(&grid, crate::likelihood_field::tests::tight_params()).unwrap()
     }
 
     #[test]

@@ -596,13 +596,8 @@ impl Mcl {
         let field = &self.field;
         let (bx, by) = (&self.beam_x[..nb], &self.beam_y[..nb]);
         match self.params.sensor_model {
-            SensorModel::LikelihoodField => self.set.reweight_log(|px, py, th| {
-                let (s, c) = th.sin_cos();
-                let mut l = 0.0;
-                for (&u, &v) in bx.iter().zip(by) {
-                    l += field.log_likelihood(px + c * u - s * v, py + s * u + c * v);
-                }
-                l
+            SensorModel::LikelihoodField => self.set.reweight_log_columns(|x, y, th, out| {
+                field.scan_log_likelihoods(bx, by, x, y, th, out)
             }),
             SensorModel::Beam => {
                 let (bp, mount, range_max) = (self.params.beam_params(), scan.mount, r);

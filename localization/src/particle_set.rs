@@ -282,6 +282,23 @@ impl ParticleSet {
         self.weigh_by_log_likelihoods();
     }
 
+    /// [`ParticleSet::reweight_log`] for a sensor model that computes every particle's
+    /// log-likelihood at once: `loglik(x, y, θ, out)` gets the live columns and fills `out`.
+    #[inline]
+    pub fn reweight_log_columns(
+        &mut self,
+        loglik: impl FnOnce(&[f64], &[f64], &[f64], &mut [f64]),
+    ) {
+        let n = self.n;
+        loglik(
+            &self.x[..n],
+            &self.y[..n],
+            &self.th[..n],
+            &mut self.logw[..n],
+        );
+        self.weigh_by_log_likelihoods();
+    }
+
     /// Weights ∝ prior weight × exp(log-likelihood), normalised in log space (the raw
     /// product of many densities under- or overflows). Degenerate log-likelihoods (every
     /// particle impossible) give uniform weights.

@@ -210,21 +210,25 @@ fn tracking_follows_the_robot_to_within_ten_centimetres() {
     assert!(est.covariance[(0, 0)].sqrt() < 0.1 && est.covariance[(1, 1)].sqrt() < 0.1);
 }
 
-#[test]
-fn the_beam_model_tracks_the_robot_too() {
+/// Errors of a filter with `params` tracking the robot around [`TOUR`] from a belief near
+/// its start.
+fn track_tour(params: MclParams) -> Vec<f64> {
     let grid = asymmetric_room();
-    let start = Pose2::new(1.0, 1.0, 0.0);
-    let truth = route(start, &TOUR);
+    let truth = route(Pose2::new(1.0, 1.0, 0.0), &TOUR);
     let init = InitialBelief::Tracking {
         pose: Pose2::new(1.15, 0.9, 0.05),
         sigma: [0.2, 0.2, 0.1],
     };
-    let params = MclParams {
+    let mut mcl = Mcl::new("mcl", params, &grid, init, 7).unwrap();
+    drive(&mut mcl, &grid, &truth, 11)
+}
+
+#[test]
+fn the_beam_model_tracks_the_robot_too() {
+    let errors = track_tour(MclParams {
         sensor_model: SensorModel::Beam,
         ..MclParams::default()
-    };
-    let mut mcl = Mcl::new("mcl", params, &grid, init, 7).unwrap();
-    let errors = drive(&mut mcl, &grid, &truth, 11);
+    });
     let last = *errors.last().unwrap();
     let worst_after_start = errors[20..].iter().copied().fold(0.0, f64::max);
     eprintln!("beam model: final {last:.3} m, worst after 20 steps {worst_after_start:.3} m");
@@ -236,19 +240,10 @@ fn the_beam_model_tracks_the_robot_too() {
 fn resampling_below_an_ess_fraction_still_tracks() {
     // Weights carried across updates (the prior weights enter the log reweighting) keep the
     // filter on the robot; the default stays amcl's resampling after every update.
-    let grid = asymmetric_room();
-    let start = Pose2::new(1.0, 1.0, 0.0);
-    let truth = route(start, &TOUR);
-    let init = InitialBelief::Tracking {
-        pose: Pose2::new(1.15, 0.9, 0.05),
-        sigma: [0.2, 0.2, 0.1],
-    };
-    let params = MclParams {
+    let errors = track_tour(MclParams {
         resample_ess: 0.5,
         ..MclParams::default()
-    };
-    let mut mcl = Mcl::new("mcl", params, &grid, init, 7).unwrap();
-    let errors = drive(&mut mcl, &grid, &truth, 11);
+    });
     assert!(*errors.last().unwrap() < 0.1, "{errors:?}");
     assert_eq!(
         MclParams::default().resample_policy(),
