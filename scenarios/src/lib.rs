@@ -10,11 +10,11 @@
 
 pub mod builtins;
 pub mod camera_sensors;
+pub mod disk_cache;
 pub mod error;
 pub mod error_maps;
 pub mod expect;
 pub mod load_cache;
-pub mod disk_cache;
 pub mod map_cache;
 pub mod maps;
 pub mod metrics;
