@@ -51,7 +51,7 @@ impl ReadingStream for ConstantSpeed {
         Ok(Some(Tick {
             t,
             truth: Some(truth),
-            score: self.step % self.score_every == 0,
+            score: self.step.is_multiple_of(self.score_every),
             events: Vec::new(),
         }))
     }
