@@ -635,7 +635,14 @@ impl Scenario {
             params.insert(k.clone(), v.clone());
         }
         doc.insert("world_params".into(), toml::Value::Table(params));
-        Scenario::from_toml_str(&toml::to_string(&doc).unwrap_or_default(), path)
+        let text = toml::to_string(&doc).map_err(|e| ScenarioError::Parse {
+            file: path.to_path_buf(),
+            msg: format!(
+                "cannot apply the world parameters of {}: {e}",
+                self.file.display()
+            ),
+        })?;
+        Scenario::from_toml_str(&text, path)
     }
 
     /// Parses and validates scenario text; relative paths resolve against `file`'s folder.
