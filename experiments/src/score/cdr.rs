@@ -3,6 +3,7 @@
 //! `geometry_msgs/msg/PoseStamped` and `nav_msgs/msg/Odometry` (its pose part). Only what a
 //! planar score needs is read: the header stamp, x, y, the yaw and the (x, y, yaw) covariance.
 
+use crate::dataset::ros2::cdr::CdrReader;
 use atrium_robots::Pose2;
 use nalgebra::Matrix3;
 
@@ -23,107 +24,40 @@ pub struct RosPose {
     pub covariance: Option<Matrix3<f64>>,
 }
 
-/// A CDR reader: a 4-byte encapsulation header (big or little endian), then fields aligned
-/// to their size relative to the end of that header.
-struct Cdr<'a> {
-    data: &'a [u8],
-    pos: usize,
-    little: bool,
+/// `std_msgs/Header`: the stamp in seconds; the frame id is skipped.
+fn header(r: &mut CdrReader) -> Result<f64, String> {
+    let sec = r.i32()?;
+    let nsec = r.u32()?;
+    r.bytes()?;
+    Ok((i64::from(sec) * 1_000_000_000 + i64::from(nsec)) as f64 / 1e9)
 }
 
-impl<'a> Cdr<'a> {
-    fn new(bytes: &'a [u8]) -> Result<Self, String> {
-        if bytes.len() < 4 {
-            return Err("shorter than the CDR encapsulation header".into());
-        }
-        let little = match bytes[1] {
-            0 => false,
-            1 => true,
-            k => return Err(format!("unsupported CDR encapsulation kind {k}")),
-        };
-        Ok(Cdr {
-            data: &bytes[4..],
-            pos: 0,
-            little,
-        })
-    }
+/// `geometry_msgs/Pose` on the floor plane.
+fn pose(r: &mut CdrReader) -> Result<Pose2, String> {
+    let [x, y, _z, qx, qy, qz, qw] = r.f64_array::<7>()?;
+    let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+    Ok(Pose2::new(x, y, yaw))
+}
 
-    fn take<const N: usize>(&mut self) -> Result<[u8; N], String> {
-        self.pos = self.pos.div_ceil(N) * N;
-        let b = self
-            .data
-            .get(self.pos..self.pos + N)
-            .ok_or("message ends early")?;
-        self.pos += N;
-        let mut a = [0u8; N];
-        a.copy_from_slice(b);
-        if !self.little {
-            a.reverse();
-        }
-        Ok(a)
-    }
-
-    fn u32(&mut self) -> Result<u32, String> {
-        self.take::<4>().map(u32::from_le_bytes)
-    }
-
-    fn i32(&mut self) -> Result<i32, String> {
-        self.take::<4>().map(i32::from_le_bytes)
-    }
-
-    fn f64(&mut self) -> Result<f64, String> {
-        self.take::<8>().map(f64::from_le_bytes)
-    }
-
-    fn skip_string(&mut self) -> Result<(), String> {
-        let n = self.u32()? as usize;
-        if self.data.len() < self.pos + n {
-            return Err("message ends early (in a string)".into());
-        }
-        self.pos += n;
-        Ok(())
-    }
-
-    /// `std_msgs/Header`: the stamp in seconds; the frame id is skipped.
-    fn header(&mut self) -> Result<f64, String> {
-        let sec = self.i32()?;
-        let nsec = self.u32()?;
-        self.skip_string()?;
-        Ok((i64::from(sec) * 1_000_000_000 + i64::from(nsec)) as f64 / 1e9)
-    }
-
-    /// `geometry_msgs/Pose` on the floor plane.
-    fn pose(&mut self) -> Result<Pose2, String> {
-        let mut v = [0.0; 7];
-        for x in &mut v {
-            *x = self.f64()?;
-        }
-        let [x, y, _z, qx, qy, qz, qw] = v;
-        let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
-        Ok(Pose2::new(x, y, yaw))
-    }
-
-    /// `float64[36]`, row-major over x, y, z, roll, pitch, yaw: the x, y, yaw block.
-    fn covariance(&mut self) -> Result<Matrix3<f64>, String> {
-        let mut c = [0.0; 36];
-        for x in &mut c {
-            *x = self.f64()?;
-        }
-        let idx = [0usize, 1, 5];
-        Ok(Matrix3::from_fn(|r, k| c[6 * idx[r] + idx[k]]))
-    }
+/// `float64[36]`, row-major over x, y, z, roll, pitch, yaw: the x, y, yaw block.
+fn covariance(r: &mut CdrReader) -> Result<Matrix3<f64>, String> {
+    let c = r.f64_array::<36>()?;
+    let idx = [0usize, 1, 5];
+    Ok(Matrix3::from_fn(|row, k| c[6 * idx[row] + idx[k]]))
 }
 
 /// Decodes a message of one of [`SCHEMAS`].
 pub fn decode(schema: &str, bytes: &[u8]) -> Result<RosPose, String> {
-    let mut r = Cdr::new(bytes)?;
-    let stamp = r.header()?;
+    let mut r = CdrReader::new(bytes)?;
+    let stamp = header(&mut r)?;
     let (pose, covariance) = match schema {
-        "geometry_msgs/msg/PoseWithCovarianceStamped" => (r.pose()?, Some(r.covariance()?)),
-        "geometry_msgs/msg/PoseStamped" => (r.pose()?, None),
+        "geometry_msgs/msg/PoseWithCovarianceStamped" => {
+            (self::pose(&mut r)?, Some(self::covariance(&mut r)?))
+        }
+        "geometry_msgs/msg/PoseStamped" => (self::pose(&mut r)?, None),
         "nav_msgs/msg/Odometry" => {
-            r.skip_string()?; // child_frame_id
-            (r.pose()?, Some(r.covariance()?))
+            r.bytes()?; // child_frame_id
+            (self::pose(&mut r)?, Some(self::covariance(&mut r)?))
         }
         other => return Err(format!("schema {other:?} is not a ROS 2 pose message")),
     };
