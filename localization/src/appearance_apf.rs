@@ -28,11 +28,11 @@ use crate::appearance::{fuse, AppearanceMap, Component, PoseKernel};
 use crate::cluster::PointEstimate;
 use crate::em_pca::{EmPca, EmPcaParams, ProjectionScratch};
 use crate::error::LocalizationError;
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
+use crate::localizer::OdometryDelta;
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particle_set::ParticleSet;
-use crate::particles::{CarriedEstimate, Rejections};
+use crate::particle_filter::{FilterCore, ParticleFilter};
+use crate::particles::Rejections;
 use crate::pca::{Pca, PcaMethod};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DisparityImage, IntensityImage, Pose2, Reading};
@@ -341,15 +341,13 @@ impl Pending {
 
 /// The auxiliary particle filter on an [`AppearanceModel`] (000 §VI).
 pub struct AppearanceApf {
-    name: String,
+    core: FilterCore,
     params: ApfParams,
     model: Arc<AppearanceModel>,
     kernel: PoseKernel,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
     /// log of the outlier component's density: ε / (area · 2π).
     log_outlier: f64,
-    set: ParticleSet,
     /// Weights of the auxiliary pairs (particle, component or outlier), M × (K + 1).
     pair_w: Vec<f64>,
     features: Vec<f64>,
@@ -358,7 +356,6 @@ pub struct AppearanceApf {
     disparity: Pending,
     fused: Vec<Component>,
     last_model: Vec<Component>,
-    carry: CarriedEstimate,
     updates: usize,
     rejected: Rejections,
 }
@@ -383,15 +380,13 @@ impl AppearanceApf {
         let area = ((x1 - x0).max(0.0) + 2.0 * params.sigma_xy)
             * ((y1 - y0).max(0.0) + 2.0 * params.sigma_xy);
         let mut f = AppearanceApf {
-            name: name.to_owned(),
+            core: FilterCore::new(name, m, seed),
             kernel: PoseKernel {
                 sigma_xy: params.sigma_xy,
                 sigma_theta: params.sigma_theta_deg.to_radians(),
             },
             motion: OdometryMotionModel::new(params.alpha),
-            rng: ChaCha8Rng::seed_from_u64(seed),
             log_outlier: params.outlier.ln() - (area * 2.0 * std::f64::consts::PI).ln(),
-            set: ParticleSet::with_capacity(m),
             pair_w: vec![0.0; m * (k_max + 1)],
             features: vec![0.0; d],
             scratch: ProjectionScratch::new(d),
@@ -399,24 +394,18 @@ impl AppearanceApf {
             disparity: Pending::new(k_max),
             fused: Vec::with_capacity(k_max),
             last_model: Vec::with_capacity(k_max),
-            carry: CarriedEstimate::default(),
             updates: 0,
             rejected: Rejections::default(),
             model,
             params,
         };
-        f.set
-            .sample_initial_belief(m, init, [x0, y0, x1, y1], &mut f.rng)?;
-        f.compute_estimate();
+        f.core
+            .start(m, init, [x0, y0, x1, y1], PointEstimate::WeightedMean)?;
         Ok(f)
     }
 
     pub fn model(&self) -> &AppearanceModel {
         &self.model
-    }
-
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
     }
 
     /// Sensor updates applied so far.
@@ -501,11 +490,11 @@ impl AppearanceApf {
     /// One auxiliary-particle-filter step with the mixture sensor model `components`
     /// (weights λ summing to one), after the odometry received since the last step.
     pub fn step(&mut self, components: &[Component]) {
-        let m = self.set.len();
+        let m = self.core.set.len();
         let k = components.len();
         // Odometry as a Gaussian N(m_i, Q): the noiseless composition and the variance
         // Table 5.6's α give to this increment, plus a floor.
-        let p = std::mem::take(&mut self.carry.pending);
+        let p = std::mem::take(&mut self.core.carry.pending);
         let inc = self.motion.decompose(&Pose2::default(), &p);
         let q_xy = inc.sd_trans.powi(2)
             + (inc.trans * inc.sd_rot1).powi(2)
@@ -514,8 +503,8 @@ impl AppearanceApf {
             + inc.sd_rot2.powi(2)
             + self.params.min_motion_sd_theta_deg.to_radians().powi(2);
         for i in 0..m {
-            let mi = self.set.pose(i).compose(&p);
-            self.set.set_pose(i, mi);
+            let mi = self.core.set.pose(i).compose(&p);
+            self.core.set.set_pose(i, mi);
         }
         let r_xy = self.kernel.sigma_xy.powi(2);
         let r_th = self.kernel.sigma_theta.powi(2);
@@ -530,8 +519,8 @@ impl AppearanceApf {
         let pairs = &mut self.pair_w[..m * stride];
         let mut max = f64::NEG_INFINITY;
         for i in 0..m {
-            let lw = self.set.weights()[i].ln();
-            let mi = self.set.pose(i);
+            let lw = self.core.set.weights()[i].ln();
+            let mi = self.core.set.pose(i);
             let row = &mut pairs[i * stride..(i + 1) * stride];
             for (slot, c) in row.iter_mut().zip(components) {
                 let dx = c.pose.x - mi.x;
@@ -549,43 +538,49 @@ impl AppearanceApf {
         for v in pairs.iter_mut() {
             *v = (*v - max).exp();
         }
-        if !low_variance_indices(pairs, &mut self.set.indices_mut()[..m], &mut self.rng) {
+        if !low_variance_indices(
+            pairs,
+            &mut self.core.set.indices_mut()[..m],
+            &mut self.core.rng,
+        ) {
             // Cannot happen with the outlier term; keep the prediction if it does.
-            self.set.make_uniform(m);
-            self.compute_estimate();
+            self.core.set.make_uniform(m);
+            self.core.refresh_estimate(PointEstimate::WeightedMean);
             return;
         }
         // Product of the two Gaussians: S = (Q⁻¹ + R⁻¹)⁻¹, μ = m + S R⁻¹ (x_j − m).
         let s_xy = 1.0 / (1.0 / q_xy + 1.0 / r_xy);
         let s_th = 1.0 / (1.0 / q_th + 1.0 / r_th);
-        self.set.rebuild(m, &mut self.rng, |flat, src, rng| {
-            let (i, j) = (flat / stride, flat % stride);
-            let [mx, my, mt] = src.get(i);
-            let (cx, cy, ct, sxy, sth) = if j < k {
-                let c = &components[j].pose;
-                let gx = s_xy / r_xy;
-                let gt = s_th / r_th;
-                (
-                    mx + gx * (c.x - mx),
-                    my + gx * (c.y - my),
-                    mt + gt * normalize_angle(c.theta - mt),
-                    s_xy.sqrt(),
-                    s_th.sqrt(),
-                )
-            } else {
-                (mx, my, mt, q_xy.sqrt(), q_th.sqrt())
-            };
-            let mut g = || -> f64 { StandardNormal.sample(rng) };
-            [
-                cx + sxy * g(),
-                cy + sxy * g(),
-                normalize_angle(ct + sth * g()),
-            ]
-        });
+        self.core
+            .set
+            .rebuild(m, &mut self.core.rng, |flat, src, rng| {
+                let (i, j) = (flat / stride, flat % stride);
+                let [mx, my, mt] = src.get(i);
+                let (cx, cy, ct, sxy, sth) = if j < k {
+                    let c = &components[j].pose;
+                    let gx = s_xy / r_xy;
+                    let gt = s_th / r_th;
+                    (
+                        mx + gx * (c.x - mx),
+                        my + gx * (c.y - my),
+                        mt + gt * normalize_angle(c.theta - mt),
+                        s_xy.sqrt(),
+                        s_th.sqrt(),
+                    )
+                } else {
+                    (mx, my, mt, q_xy.sqrt(), q_th.sqrt())
+                };
+                let mut g = || -> f64 { StandardNormal.sample(rng) };
+                [
+                    cx + sxy * g(),
+                    cy + sxy * g(),
+                    normalize_angle(ct + sth * g()),
+                ]
+            });
         self.last_model.clear();
         self.last_model.extend_from_slice(components);
         self.updates += 1;
-        self.compute_estimate();
+        self.core.refresh_estimate(PointEstimate::WeightedMean);
     }
 
     /// Runs the step of an observation left waiting for its stereo partner, alone.
@@ -635,32 +630,29 @@ impl AppearanceApf {
             self.fused = fused;
         }
     }
-
-    fn compute_estimate(&mut self) {
-        self.carry
-            .set(self.set.estimate(PointEstimate::WeightedMean));
-    }
 }
 
 fn sensor_matches(wanted: &Option<String>, got: &str) -> bool {
     wanted.as_deref().is_none_or(|w| w == got)
 }
 
-impl Localizer for AppearanceApf {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for AppearanceApf {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        // Time moved past a frame whose partner never came: use it alone.
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
+    }
+
+    /// Time moved past a frame whose partner never came: use it alone.
+    fn before_odometry(&mut self, delta: &OdometryDelta) {
         self.flush_older_than(delta.stamp);
-        self.carry.accumulate(delta);
-        Ok(())
     }
 
     /// Intensity images (and disparity maps when the map has disparity features) of the
     /// configured sensors; a bad image is counted in [`AppearanceApf::rejected`], never a panic.
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
+    fn take_reading(&mut self, reading: &Reading) {
         match reading {
             Reading::Intensity(img)
                 if sensor_matches(&self.params.intensity_sensor, &img.sensor) =>
@@ -676,7 +668,7 @@ impl Localizer for AppearanceApf {
                 self.intensity.components = comps;
                 match r {
                     Ok(()) => {
-                        self.carry.observed_at(img.stamp);
+                        self.core.carry.observed_at(img.stamp);
                         self.observe(img.stamp, false);
                     }
                     Err(e) => self.rejected.record(e),
@@ -692,7 +684,7 @@ impl Localizer for AppearanceApf {
                 self.disparity.components = comps;
                 match r {
                     Ok(true) => {
-                        self.carry.observed_at(map.stamp);
+                        self.core.carry.observed_at(map.stamp);
                         self.observe(map.stamp, true);
                     }
                     Ok(false) => {}
@@ -701,27 +693,13 @@ impl Localizer for AppearanceApf {
             }
             _ => {}
         }
-        Ok(())
-    }
-
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
-    }
-
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for AppearanceApf {
-    fn as_any(&self) -> Option<&dyn std::any::Any> {
-        Some(self)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::localizer::Localizer;
     use atrium_robots::Mount3;
 
     /// A synthetic world for the filter: the "image" at pose p is a smooth function of

@@ -13,15 +13,12 @@
 
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particle_set::ParticleSet;
-use crate::particles::{CarriedEstimate, Rejections};
+use crate::particle_filter::{intensity_from, FilterCore, ParticleFilter};
+use crate::particles::Rejections;
 use crate::resampling::ResamplePolicy;
-use atrium_robots::{IntensityImage, Pose2, Reading};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use atrium_robots::{IntensityImage, Reading};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -263,15 +260,12 @@ pub fn reading_brightness(image: &IntensityImage) -> Result<f64, LocalizationErr
 
 /// Particle filter on a [`CeilingMap`] (001).
 pub struct CeilingMcl {
-    name: String,
+    core: FilterCore,
     params: CeilingMclParams,
     map: Arc<CeilingMap>,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
-    set: ParticleSet,
     /// Below `resample_ess`: one brightness says little, so diversity is kept.
     policy: ResamplePolicy,
-    carry: CarriedEstimate,
     updates: usize,
     rejected: Rejections,
 }
@@ -290,20 +284,16 @@ impl CeilingMcl {
             .map_err(|e| LocalizationError::InvalidParameter(format!("ceiling mcl: {e}")))?;
         let m = params.particles;
         let mut f = CeilingMcl {
-            name: name.to_owned(),
+            core: FilterCore::new(name, m, seed),
             motion: OdometryMotionModel::new(params.alpha),
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            set: ParticleSet::with_capacity(m),
             policy: ResamplePolicy::BelowEss(params.resample_ess),
-            carry: CarriedEstimate::default(),
             updates: 0,
             rejected: Rejections::default(),
             params,
             map,
         };
         let extent = f.map.extent();
-        f.set.sample_initial_belief(m, init, extent, &mut f.rng)?;
-        f.carry.set(f.set.estimate(PointEstimate::WeightedMean));
+        f.core.start(m, init, extent, PointEstimate::WeightedMean)?;
         Ok(f)
     }
 
@@ -311,10 +301,6 @@ impl CeilingMcl {
     #[inline]
     pub fn likelihood(&self, z: f64, x: f64, y: f64) -> f64 {
         brightness_likelihood(&self.params, &self.map, z, x, y)
-    }
-
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
     }
 
     pub fn updates(&self) -> usize {
@@ -336,16 +322,15 @@ impl CeilingMcl {
                 "ceiling mcl: brightness must be finite, got {z}"
             )));
         }
-        self.set
-            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
+        let core = &mut self.core;
+        core.propagate(&self.motion);
         let (params, map) = (&self.params, &self.map);
-        self.set
+        core.set
             .reweight(|p, _| brightness_likelihood(params, map, z, p.x, p.y));
         self.updates += 1;
-        self.carry
-            .set(self.set.estimate(PointEstimate::WeightedMean));
-        if self.policy.due(self.set.ess(), self.set.len()) {
-            self.set.resample_plain(self.set.len(), &mut self.rng);
+        core.refresh_estimate(PointEstimate::WeightedMean);
+        if self.policy.due(core.set.ess(), core.set.len()) {
+            core.set.resample_plain(core.set.len(), &mut core.rng);
         }
         Ok(())
     }
@@ -365,50 +350,34 @@ fn brightness_likelihood(p: &CeilingMclParams, map: &CeilingMap, z: f64, x: f64,
     }
 }
 
-impl Localizer for CeilingMcl {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for CeilingMcl {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        self.carry.accumulate(delta);
-        Ok(())
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
     }
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
     /// one is counted in [`CeilingMcl::rejected`].
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
-        let Reading::Intensity(img) = reading else {
-            return Ok(());
-        };
-        if img.sensor != self.params.sensor {
-            return Ok(());
+    fn take_reading(&mut self, reading: &Reading) {
+        if let Some(img) = intensity_from(reading, &self.params.sensor) {
+            let outcome = reading_brightness(img).and_then(|z| self.observe(z));
+            self.rejected
+                .settle(outcome, img.stamp, &mut self.core.carry);
         }
-        let outcome = reading_brightness(img).and_then(|z| self.observe(z));
-        self.rejected.settle(outcome, img.stamp, &mut self.carry);
-        Ok(())
-    }
-
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
-    }
-
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for CeilingMcl {
-    fn as_any(&self) -> Option<&dyn std::any::Any> {
-        Some(self)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use atrium_robots::Mount3;
+    use crate::localizer::{Localizer, OdometryDelta};
+    use atrium_robots::{Mount3, Pose2};
     use rand::Rng;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
     use rand_distr::StandardNormal;
 
     /// Three lamps of different strength over a 6 × 4 m room.

@@ -30,16 +30,14 @@
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
+use crate::initial_belief::check_gaussian;
 use crate::line_map::LineMap;
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_set::ParticleSet;
-use crate::particles::CarriedEstimate;
+use crate::particle_filter::{FilterCore, ParticleFilter};
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::limits::{check_count, check_count_min1, MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS};
@@ -196,18 +194,15 @@ struct Eval {
 /// A CGR particle filter on a vector map.
 #[derive(Debug, Clone)]
 pub struct Cgr {
-    name: String,
+    /// `particles` particles, resampled after every update with observations.
+    core: FilterCore,
     params: CgrParams,
     map: LineMap,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
     source: Source,
-    /// `particles` particles, resampled after every update with observations.
-    set: ParticleSet,
     /// Observed points in the base frame and (depth) their unit normals.
     obs: Vec<[f64; 2]>,
     obs_normals: Vec<[f64; 2]>,
-    carry: CarriedEstimate,
     /// Refined samples accepted / offered, over the whole run.
     accepted: u64,
     offered: u64,
@@ -252,18 +247,7 @@ impl Cgr {
         params
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
-        if !start.is_finite() {
-            return Err(LocalizationError::belief(
-                "pose",
-                format!("must be finite, got {start:?}"),
-            ));
-        }
-        if sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
-            return Err(LocalizationError::belief(
-                "sigma",
-                format!("must be finite and >= 0, got {sigma:?}"),
-            ));
-        }
+        check_gaussian(&start, &sigma)?;
         let line_map = LineMap::new(map, params.map_resolution, params.max_correspondence)?;
         let source = if depth {
             Source::Depth {
@@ -278,35 +262,25 @@ impl Cgr {
             Source::Laser
         };
         let m = params.particles;
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut set = ParticleSet::with_capacity(m);
+        let mut core = FilterCore::new(name, m, seed);
         // Validated above.
-        set.sample_gaussian(m, start, sigma, &mut rng);
-        let mut cgr = Cgr {
-            name: name.to_owned(),
+        core.reseed(m, start, sigma, params.estimate);
+        Ok(Cgr {
+            core,
             motion: OdometryMotionModel::new(params.alpha),
             map: line_map,
-            rng,
             source,
-            set,
             obs: Vec::with_capacity(params.max_points),
             obs_normals: Vec::with_capacity(params.max_points),
-            carry: CarriedEstimate::default(),
             accepted: 0,
             offered: 0,
             fit: FitTracker::default(),
             params,
-        };
-        cgr.compute_estimate();
-        Ok(cgr)
+        })
     }
 
     pub fn params(&self) -> &CgrParams {
         &self.params
-    }
-
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
     }
 
     /// Fraction of refined samples the acceptance test kept, over the run so far.
@@ -479,7 +453,7 @@ impl Cgr {
 
     /// Steps 1–4 of CGR on the current observation.
     fn cgr_update(&mut self) {
-        let p = std::mem::take(&mut self.carry.pending);
+        let p = std::mem::take(&mut self.core.carry.pending);
         let moved = p.x != 0.0 || p.y != 0.0 || p.theta != 0.0;
         let inc = self.motion.decompose(&Pose2::default(), &p);
         // The motion model as a Gaussian in the frame of each particle's odometry prediction,
@@ -499,17 +473,18 @@ impl Cgr {
         let have_obs = self.obs.len() >= self.params.min_points;
         let r = self.params.refinements;
         // CGR keeps its own step 1: its motion draws interleave with the acceptance test's.
-        for i in 0..self.set.len() {
-            let prev = self.set.pose(i);
+        for i in 0..self.core.set.len() {
+            let prev = self.core.set.pose(i);
             // Step 1: q⁰ from the motion model.
             let q0 = if moved {
-                let (x, y, th) = apply_increment(prev.x, prev.y, prev.theta, &inc, &mut self.rng);
+                let (x, y, th) =
+                    apply_increment(prev.x, prev.y, prev.theta, &inc, &mut self.core.rng);
                 Pose2::new(x, y, th)
             } else {
                 prev
             };
             if !have_obs {
-                self.set.set_pose(i, q0);
+                self.core.set.set_pose(i, q0);
                 continue;
             }
             // Step 2: r refinement iterations.
@@ -531,15 +506,15 @@ impl Cgr {
             let mu = if moved { prev.compose(&p) } else { prev };
             let log_alpha = (e.loglik + motion_log(&mu, &qr)) - (e0.loglik + motion_log(&mu, &q0));
             self.offered += 1;
-            let u: f64 = self.rng.random();
+            let u: f64 = self.core.rng.random();
             let (chosen, ll) = if log_alpha >= 0.0 || u.ln() < log_alpha {
                 self.accepted += 1;
                 (qr, e.loglik)
             } else {
                 (q0, e0.loglik)
             };
-            self.set.set_pose(i, chosen);
-            self.set.log_likelihoods_mut()[i] = ll;
+            self.core.set.set_pose(i, chosen);
+            self.core.set.log_likelihoods_mut()[i] = ll;
         }
         if !have_obs {
             // Nothing (or too little) to match: for the mismatch measure, as if every point
@@ -547,90 +522,69 @@ impl Cgr {
             let k = self.params.outlier_sigmas;
             let eps_out = (-0.5 * k * k).exp();
             self.fit
-                .record_blind(self.carry.stamp, eps_out.ln() - (1.0 + eps_out).ln());
+                .record_blind(self.core.carry.stamp, eps_out.ln() - (1.0 + eps_out).ln());
             // The particles moved and `pending` was consumed: the estimate must follow them,
             // or it freezes wherever the sensor last saw something (open areas, 004 §3).
-            self.compute_estimate();
+            self.core.refresh_estimate(self.params.estimate);
             return;
         }
         // Step 4: importance weights (normalised in log space) and resampling.
         self.fit.record(
-            self.carry.stamp,
-            per_unit_log_mean(self.set.log_likelihoods(), self.obs.len()),
+            self.core.carry.stamp,
+            per_unit_log_mean(self.core.set.log_likelihoods(), self.obs.len()),
         );
-        self.set.weigh_by_log_likelihoods();
-        self.compute_estimate();
-        self.set.resample_plain(self.set.len(), &mut self.rng);
-    }
-
-    /// The estimate `params.estimate` asks for, and its covariance.
-    fn compute_estimate(&mut self) {
-        self.carry.set(self.set.estimate(self.params.estimate));
+        self.core.set.weigh_by_log_likelihoods();
+        self.core.refresh_estimate(self.params.estimate);
+        self.core
+            .set
+            .resample_plain(self.core.set.len(), &mut self.core.rng);
     }
 }
 
-impl Localizer for Cgr {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for Cgr {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    /// Accumulates odometry; the motion model runs at the next observation (step 1).
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        self.carry.accumulate(delta);
-        Ok(())
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
     }
 
     /// Laser scans for a laser CGR, depth images for a depth CGR; everything else is
     /// ignored. A depth image FSPF cannot use (η larger than the image, malformed
     /// intrinsics) is skipped: the parameters were checked against the camera when the
     /// localizer was built.
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
+    fn take_reading(&mut self, reading: &Reading) {
         match (reading, &self.source) {
             (Reading::Laser(scan), Source::Laser) => {
-                self.carry.observed_at(scan.stamp);
+                self.core.carry.observed_at(scan.stamp);
                 self.observe_laser(scan);
             }
             (Reading::Depth(img), Source::Depth { .. }) => {
-                self.carry.observed_at(img.stamp);
+                self.core.carry.observed_at(img.stamp);
                 if self.observe_depth(img).is_err() {
-                    return Ok(());
+                    return;
                 }
             }
-            _ => return Ok(()),
+            _ => return,
         }
         self.cgr_update();
-        Ok(())
     }
 
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
+    fn fit_tracker(&self) -> Option<&FitTracker> {
+        Some(&self.fit)
     }
 
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for Cgr {
-    fn observation_fit(&self) -> Option<f64> {
-        self.fit.fit()
-    }
-
-    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        let ok = self
-            .set
-            .sample_gaussian(self.set.len(), pose, sigma, &mut self.rng);
-        if ok {
-            self.carry.pending = Pose2::default();
-            self.compute_estimate();
-        }
-        ok
+    fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        self.core
+            .reseed(self.core.set.len(), pose, sigma, self.params.estimate)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::localizer::{Localizer, OdometryDelta};
     use atrium_worlds::Segment;
 
     /// A 10 × 4 m room with a 1 m notch in the north wall at x ∈ [6, 7] (so that x is

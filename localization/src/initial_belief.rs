@@ -39,6 +39,23 @@ pub fn gaussian_is_valid(pose: &Pose2, sigma: &[f64; 3]) -> bool {
     pose.is_finite() && sigma.iter().all(|s| s.is_finite() && *s >= 0.0)
 }
 
+/// [`gaussian_is_valid`] as an error naming the field at fault (pose first).
+pub fn check_gaussian(pose: &Pose2, sigma: &[f64; 3]) -> Result<(), LocalizationError> {
+    if !pose.is_finite() {
+        return Err(LocalizationError::belief(
+            "pose",
+            format!("must be finite, got {pose:?}"),
+        ));
+    }
+    if sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+        return Err(LocalizationError::belief(
+            "sigma",
+            format!("must be finite and >= 0, got {sigma:?}"),
+        ));
+    }
+    Ok(())
+}
+
 /// A sampler of a global belief over an axis-aligned box: uniform over the polygons
 /// (rejection inside their bounding box), or over `extent` (x0, y0, x1, y1) when there are
 /// none; uniform heading. Built once, it draws without allocating.

@@ -29,6 +29,7 @@ pub mod motion;
 pub mod observation_fit;
 pub mod omni_map;
 pub mod omni_mcl;
+pub mod particle_filter;
 pub mod particle_set;
 pub mod particles;
 pub mod pca;
@@ -51,6 +52,7 @@ pub use line_map::LineMap;
 pub use localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
+pub use particle_filter::{FilterCore, ParticleFilter};
 pub use particle_set::ParticleSet;
 pub use resampling::{
     low_variance_indices, low_variance_indices_with_offset, Injection, ResamplePolicy,

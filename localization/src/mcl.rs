@@ -5,22 +5,20 @@
 use crate::beam_model::{beam_probability, cast_ray, BeamModelParams};
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::initial_belief::gaussian_pose;
+use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
     check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
 };
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::motion::OdometryMotionModel;
-use crate::particle_set::ParticleSet;
-use crate::particles::CarriedEstimate;
+use crate::observation_fit::FitTracker;
+use crate::particle_filter::{FilterCore, ParticleFilter};
 use crate::resampling::ResamplePolicy;
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -259,15 +257,14 @@ pub use crate::initial_belief::InitialBelief;
 /// Monte Carlo localization on an occupancy grid with a laser.
 #[derive(Debug, Clone)]
 pub struct Mcl {
-    name: String,
+    /// Up to max_particles particles; the carried estimate is the one at the last sensor
+    /// update (before resampling).
+    core: FilterCore,
     params: MclParams,
     /// Shared with every filter built from the same [`MclMap`]; copied on write only if a
     /// scan's range_max differs from the one the table was built for.
     field: Arc<LikelihoodField>,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
-    /// Up to max_particles particles.
-    set: ParticleSet,
     /// The KLD-adapted size and the bins it counts.
     kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
@@ -281,12 +278,9 @@ pub struct Mcl {
     updated_once: bool,
     w_slow: f64,
     w_fast: f64,
-    /// Odometry accumulated since the last applied motion update (in the robot frame), the
-    /// clock, and the estimate at the last sensor update (before resampling).
-    carry: CarriedEstimate,
     /// Sensing mismatch (004 §4.2) per beam, on its own time-based averages (w_slow and
     /// w_fast above exist only with recovery enabled and run per update).
-    fit: crate::observation_fit::FitTracker,
+    fit: FitTracker,
 }
 
 /// What an MCL filter derives from its map: the likelihood field (a distance transform and a
@@ -404,10 +398,8 @@ impl Mcl {
         }
         let m = params.max_particles;
         let mut mcl = Mcl {
-            name: name.to_owned(),
+            core: FilterCore::new(name, m, seed),
             motion: OdometryMotionModel::new(params.alpha),
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            set: ParticleSet::with_capacity(m),
             kld: KldSampling::new(
                 params.min_particles,
                 m,
@@ -424,7 +416,6 @@ impl Mcl {
             updated_once: false,
             w_slow: 0.0,
             w_fast: 0.0,
-            carry: CarriedEstimate::default(),
             fit: Default::default(),
             field: map.field.clone(),
             params,
@@ -442,20 +433,7 @@ impl Mcl {
     ) -> Result<(), LocalizationError> {
         let mut region_cells: Vec<u32> = Vec::new();
         match init {
-            InitialBelief::Tracking { pose, sigma } => {
-                if !pose.is_finite() {
-                    return Err(LocalizationError::belief(
-                        "pose",
-                        format!("must be finite, got {pose:?}"),
-                    ));
-                }
-                if sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
-                    return Err(LocalizationError::belief(
-                        "sigma",
-                        format!("must be finite and >= 0, got {sigma:?}"),
-                    ));
-                }
-            }
+            InitialBelief::Tracking { pose, sigma } => check_gaussian(pose, sigma)?,
             InitialBelief::Global { regions } => {
                 for (r, poly) in regions.iter().enumerate() {
                     if poly.len() < 3 {
@@ -500,12 +478,13 @@ impl Mcl {
             }
         }
         let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
-        self.set
-            .sample_kld(&mut self.kld, &mut self.rng, |rng| match init {
+        self.core
+            .set
+            .sample_kld(&mut self.kld, &mut self.core.rng, |rng| match init {
                 InitialBelief::Tracking { pose, sigma } => gaussian_pose(pose, sigma, rng),
                 InitialBelief::Global { .. } => random_pose(&region_cells, origin, res, width, rng),
             });
-        self.compute_estimate();
+        self.core.refresh_estimate(self.params.estimate);
         Ok(())
     }
 
@@ -523,13 +502,7 @@ impl Mcl {
     }
 
     pub fn particle_count(&self) -> usize {
-        self.set.len()
-    }
-
-    /// The particles and their weights as of the last sensor update (odometry received since
-    /// is not applied to them; `estimate` does apply it).
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
+        self.core.set.len()
     }
 
     /// Probability of replacing a particle by a random one at the next resampling
@@ -540,12 +513,6 @@ impl Mcl {
         } else {
             (1.0 - self.w_fast / self.w_slow).max(0.0)
         }
-    }
-
-    /// Applies the odometry accumulated since the last update through the motion model.
-    fn apply_motion(&mut self) {
-        self.set
-            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
     }
 
     /// For the beam model: up to max_beams beams with a reading, max-range ones included
@@ -596,12 +563,12 @@ impl Mcl {
         let field = &self.field;
         let (bx, by) = (&self.beam_x[..nb], &self.beam_y[..nb]);
         match self.params.sensor_model {
-            SensorModel::LikelihoodField => self.set.reweight_log_columns(|x, y, th, out| {
+            SensorModel::LikelihoodField => self.core.set.reweight_log_columns(|x, y, th, out| {
                 field.scan_log_likelihoods(bx, by, x, y, th, out)
             }),
             SensorModel::Beam => {
                 let (bp, mount, range_max) = (self.params.beam_params(), scan.mount, r);
-                self.set.reweight_log(|px, py, th| {
+                self.core.set.reweight_log(|px, py, th| {
                     let o = Pose2::new(px, py, th).compose(&mount);
                     let mut l = 0.0;
                     for (&a, &z) in bx.iter().zip(by) {
@@ -613,14 +580,14 @@ impl Mcl {
                 })
             }
         }
-        let n = self.set.len();
+        let n = self.core.set.len();
         let inv_nb = 1.0 / nb as f64;
         let mut per_beam = 0.0;
-        for &l in self.set.log_likelihoods() {
+        for &l in self.core.set.log_likelihoods() {
             per_beam += (l * inv_nb).exp();
         }
         self.fit
-            .record(self.carry.stamp, (per_beam / n as f64).ln());
+            .record(self.core.carry.stamp, (per_beam / n as f64).ln());
         // Augmented MCL bookkeeping (Table 8.3) on the per-beam geometric mean likelihood:
         // the raw product swings by orders of magnitude with the number of valid beams in a
         // scan, which would read as a sudden loss of track.
@@ -634,8 +601,8 @@ impl Mcl {
                 self.w_fast += self.params.alpha_fast * (w_avg - self.w_fast);
             }
         }
-        self.compute_estimate();
-        if self.params.resample_policy().due(self.set.ess(), n) {
+        self.core.refresh_estimate(self.params.estimate);
+        if self.params.resample_policy().due(self.core.set.ess(), n) {
             self.resample();
         }
     }
@@ -650,15 +617,11 @@ impl Mcl {
         };
         let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
         let cells = &self.free_cells;
-        self.set
-            .resample_kld(&mut self.kld, p_inj, &mut self.rng, |rng| {
+        self.core
+            .set
+            .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
                 random_pose(cells, origin, res, width, rng)
             });
-    }
-
-    /// The estimate `params.estimate` asks for, and its covariance.
-    fn compute_estimate(&mut self) {
-        self.carry.set(self.set.estimate(self.params.estimate));
     }
 }
 
@@ -710,61 +673,41 @@ fn random_pose<R: Rng + ?Sized>(
     )
 }
 
-impl Localizer for Mcl {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for Mcl {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    /// Accumulates odometry; the motion model runs just before the next sensor update.
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        self.carry.accumulate(delta);
-        Ok(())
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
     }
 
     /// Laser scans only; odometry readings are ignored because odometry arrives through
     /// `predict` (using both would count it twice).
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
+    fn take_reading(&mut self, reading: &Reading) {
         let Reading::Laser(scan) = reading else {
-            return Ok(());
+            return;
         };
-        self.carry.observed_at(scan.stamp);
-        let pending = self.carry.pending;
+        self.core.carry.observed_at(scan.stamp);
+        let pending = self.core.carry.pending;
         let moved = pending.x.hypot(pending.y) >= self.params.update_min_d
             || pending.theta.abs() >= self.params.update_min_a;
         if self.updated_once && !moved {
-            return Ok(());
+            return;
         }
         self.updated_once = true;
-        self.apply_motion();
+        self.core.propagate(&self.motion);
         self.sensor_update(scan);
-        Ok(())
     }
 
-    /// The weighted mean at the last sensor update, moved by the odometry received since,
-    /// with its covariance carried through the same composition (first order).
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
-    }
-
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for Mcl {
-    fn observation_fit(&self) -> Option<f64> {
-        self.fit.fit()
+    fn fit_tracker(&self) -> Option<&FitTracker> {
+        Some(&self.fit)
     }
 
     /// Redraws the current number of particles (at least `min_particles`) around `pose`.
-    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        let n = self.set.len().max(self.params.min_particles);
-        let ok = self.set.sample_gaussian(n, pose, sigma, &mut self.rng);
-        if ok {
-            self.carry.pending = Pose2::default();
-            self.compute_estimate();
-        }
-        ok
+    fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        let n = self.core.set.len().max(self.params.min_particles);
+        self.core.reseed(n, pose, sigma, self.params.estimate)
     }
 }
 

@@ -365,16 +365,29 @@ impl OmniMap {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A synthetic panorama: the azimuthal profile seen from (x, y) of three coloured posts.
     fn panorama(x: f64, y: f64, theta: f64, w: usize, h: usize) -> Vec<f32> {
         let posts = [(5.0, 1.0, 0.9), (-1.0, 4.0, 0.5), (2.0, -3.0, 0.2)];
+        panorama_of(&posts, x, y, theta, w, h)
+    }
+
+    /// The panorama (`w` × `h`) seen from (x, y) with heading `theta` of `posts` (x, y,
+    /// brightness), also for the filter's tests (`omni_mcl.rs`).
+    pub(crate) fn panorama_of(
+        posts: &[(f64, f64, f64)],
+        x: f64,
+        y: f64,
+        theta: f64,
+        w: usize,
+        h: usize,
+    ) -> Vec<f32> {
         let mut img = vec![0.3f32; w * h];
         for c in 0..w {
             let az = theta + 2.0 * std::f64::consts::PI * c as f64 / w as f64;
-            for (px, py, b) in posts {
+            for &(px, py, b) in posts {
                 let bearing = (py - y).atan2(px - x);
                 let dist = (px - x).hypot(py - y);
                 let da = normalize_angle(bearing - az);

@@ -23,16 +23,14 @@
 
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::omni_map::OmniMap;
-use crate::particle_set::ParticleSet;
-use crate::particles::{CarriedEstimate, Rejections};
+use crate::particle_filter::{intensity_from, FilterCore, ParticleFilter};
+use crate::particles::Rejections;
 use crate::resampling::{injection_count, Injection, ResamplePolicy};
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -102,21 +100,18 @@ impl OmniMclParams {
 
 /// Particle filter on an [`OmniMap`] (001).
 pub struct OmniMcl {
-    name: String,
+    core: FilterCore,
     params: OmniMclParams,
     map: Arc<OmniMap>,
     /// 1 / 2σ².
     inv_two_sigma2: f64,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
-    set: ParticleSet,
     /// Below `resample_ess`, as the ceiling filter.
     policy: ResamplePolicy,
     /// Features of the current panorama.
     feat: Vec<f64>,
     /// Energy at every (node, rotation), then the cumulative proposal over them.
     table: Vec<f64>,
-    carry: CarriedEstimate,
     updates: usize,
     rejected: Rejections,
 }
@@ -146,33 +141,25 @@ impl OmniMcl {
         let m = params.particles;
         let (nx, ny) = map.nodes();
         let mut f = OmniMcl {
-            name: name.to_owned(),
+            core: FilterCore::new(name, m, seed),
             inv_two_sigma2: 0.5 / sigma2,
             motion: OdometryMotionModel::new(params.alpha),
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            set: ParticleSet::with_capacity(m),
             policy: ResamplePolicy::BelowEss(params.resample_ess),
             feat: vec![0.0; map.d()],
             table: Vec::with_capacity(nx * ny * map.rotations()),
-            carry: CarriedEstimate::default(),
             updates: 0,
             rejected: Rejections::default(),
             params,
             map,
         };
         let extent = f.map.extent();
-        f.set.sample_initial_belief(m, init, extent, &mut f.rng)?;
-        f.compute_estimate();
+        f.core.start(m, init, extent, PointEstimate::WeightedMean)?;
         Ok(f)
     }
 
     /// The feature-space σ in use.
     pub fn sigma(&self) -> f64 {
         (0.5 / self.inv_two_sigma2).sqrt()
-    }
-
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
     }
 
     pub fn updates(&self) -> usize {
@@ -191,21 +178,20 @@ impl OmniMcl {
     /// (row-major, the map's width × height).
     pub fn observe(&mut self, image: &[f32]) -> Result<(), LocalizationError> {
         self.map.features_into(image, &mut self.feat)?;
-        self.set
-            .propagate(&self.motion, &mut self.carry.pending, &mut self.rng);
-        let m = self.set.len();
+        self.core.propagate(&self.motion);
+        let m = self.core.set.len();
         let mut best = f64::NEG_INFINITY;
         for i in 0..m {
-            let pose = self.set.pose(i);
+            let pose = self.core.set.pose(i);
             let l = match self.map.energy_at(&self.feat, &pose) {
                 Some(e) => -e * self.inv_two_sigma2,
                 None => f64::NEG_INFINITY,
             };
-            self.set.log_likelihoods_mut()[i] = l;
+            self.core.set.log_likelihoods_mut()[i] = l;
             best = best.max(l);
         }
         let eps = self.params.outlier;
-        self.set.reweight(|_, l| {
+        self.core.set.reweight(|_, l| {
             // Relative to the best particle: exp never underflows for all of them at once,
             // and the floor is a fraction of the best explanation.
             if best.is_finite() {
@@ -215,10 +201,10 @@ impl OmniMcl {
             }
         });
         self.updates += 1;
-        self.compute_estimate();
-        if self.policy.due(self.set.ess(), m) {
+        self.core.refresh_estimate(PointEstimate::WeightedMean);
+        if self.policy.due(self.core.set.ess(), m) {
             self.resample();
-            self.compute_estimate();
+            self.core.refresh_estimate(PointEstimate::WeightedMean);
         }
         Ok(())
     }
@@ -227,11 +213,11 @@ impl OmniMcl {
     /// exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half a grid step
     /// and half a rotation step.
     fn resample(&mut self) {
-        let m = self.set.len();
+        let m = self.core.set.len();
         let k = injection_count(self.params.inject, m);
         let total = if k > 0 { self.proposal() } else { None };
         let Some(total) = total else {
-            self.set.resample_plain(m, &mut self.rng);
+            self.core.set.resample_plain(m, &mut self.core.rng);
             return;
         };
         let (map, table) = (&self.map, &self.table);
@@ -239,8 +225,9 @@ impl OmniMcl {
         let (nx, _) = map.nodes();
         let step = map.step();
         let half_turn = std::f64::consts::PI / r as f64;
-        self.set
-            .resample(m, Injection::Count(k), &mut self.rng, |rng| {
+        self.core
+            .set
+            .resample(m, Injection::Count(k), &mut self.core.rng, |rng| {
                 let u = rng.random::<f64>() * total;
                 let cell = table.partition_point(|c| *c <= u).min(table.len() - 1);
                 let (node, rot) = (cell / r, cell % r);
@@ -271,11 +258,6 @@ impl OmniMcl {
         Some(acc)
     }
 
-    fn compute_estimate(&mut self) {
-        self.carry
-            .set(self.set.estimate(PointEstimate::WeightedMean));
-    }
-
     fn check(&self, img: &IntensityImage) -> Result<(), LocalizationError> {
         if img.width != self.map.width || img.height != self.map.height {
             return Err(LocalizationError::InvalidParameter(format!(
@@ -287,63 +269,41 @@ impl OmniMcl {
     }
 }
 
-impl Localizer for OmniMcl {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for OmniMcl {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        self.carry.accumulate(delta);
-        Ok(())
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
     }
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
     /// one is counted in [`OmniMcl::rejected`].
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
-        let Reading::Intensity(img) = reading else {
-            return Ok(());
-        };
-        if img.sensor != self.params.sensor {
-            return Ok(());
+    fn take_reading(&mut self, reading: &Reading) {
+        if let Some(img) = intensity_from(reading, &self.params.sensor) {
+            let outcome = self.check(img).and_then(|()| self.observe(&img.pixels));
+            self.rejected
+                .settle(outcome, img.stamp, &mut self.core.carry);
         }
-        let outcome = self.check(img).and_then(|()| self.observe(&img.pixels));
-        self.rejected.settle(outcome, img.stamp, &mut self.carry);
-        Ok(())
     }
 
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
-    }
-
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for OmniMcl {
-    fn as_any(&self) -> Option<&dyn std::any::Any> {
-        Some(self)
-    }
-
-    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
-        let m = self.set.len();
-        if !self.set.sample_gaussian(m, pose, sigma, &mut self.rng) {
-            return false;
-        }
-        self.carry.pending = Pose2::default();
-        self.compute_estimate();
-        true
+    fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        let m = self.core.set.len();
+        self.core
+            .reseed(m, pose, sigma, PointEstimate::WeightedMean)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::localizer::{Localizer, OdometryDelta};
+    use crate::omni_map::tests::panorama_of;
     use crate::omni_map::{shift_columns, OmniMapParams};
     use atrium_robots::Mount3;
 
-    /// A synthetic panorama (as in `omni_map.rs`'s tests): the azimuthal profile of four
-    /// posts seen from (x, y) with heading `theta`.
+    /// A synthetic panorama of four posts seen from (x, y) with heading `theta`.
     fn panorama(x: f64, y: f64, theta: f64, w: usize, h: usize) -> Vec<f32> {
         let posts = [
             (5.0, 1.0, 0.9),
@@ -351,23 +311,7 @@ mod tests {
             (2.0, -3.0, 0.2),
             (4.0, 5.0, 0.7),
         ];
-        let mut img = vec![0.3f32; w * h];
-        for c in 0..w {
-            let az = theta + 2.0 * std::f64::consts::PI * c as f64 / w as f64;
-            for (px, py, b) in posts {
-                let bearing = (py - y).atan2(px - x);
-                let dist = (px - x).hypot(py - y);
-                let da = normalize_angle(bearing - az);
-                let v = b * (-da * da * dist * dist / 0.5).exp();
-                for r in 0..h {
-                    let rows = (h as f64 * (0.3 + 1.0 / dist).min(1.0)) as usize;
-                    if r < rows {
-                        img[r * w + c] += v as f32;
-                    }
-                }
-            }
-        }
-        img
+        panorama_of(&posts, x, y, theta, w, h)
     }
 
     fn map() -> Arc<OmniMap> {

@@ -23,19 +23,16 @@
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::free_space::FreeSpace;
-use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_set::ParticleSet;
-use crate::particles::CarriedEstimate;
+use crate::particle_filter::{FilterCore, ParticleFilter};
 use crate::resampling::Injection;
 use crate::wifi_graph::WifiGraph;
 use atrium_robots::{Pose2, Reading, WifiScan};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -172,21 +169,17 @@ fn normal_cdf(z: f64) -> f64 {
 
 /// Particle filter on a [`WifiGraph`].
 pub struct WifiMcl {
-    name: String,
+    core: FilterCore,
     params: WifiMclParams,
     graph: Arc<WifiGraph>,
     cutoff: f64,
     motion: OdometryMotionModel,
-    rng: ChaCha8Rng,
-    /// Room for the larger of the tracking and the global counts.
-    set: ParticleSet,
     /// Per graph access point: the reading of the current scan, NaN when missing.
     z: Vec<f64>,
     /// Free positions to draw random particles from (cell centres on a ≤ 0.25 m lattice).
     free: Vec<[f64; 2]>,
     free_step: f64,
     unknown: usize,
-    carry: CarriedEstimate,
     /// Sensing mismatch (004 §4.2) of the scans, per access point of the graph.
     fit: FitTracker,
     /// The building's free space (the constraint of `constrain_to_map`).
@@ -234,16 +227,14 @@ impl WifiMcl {
         let cutoff = params.cutoff_dbm.unwrap_or(graph.cutoff_dbm);
         let n_ap = graph.aps.len();
         let mut f = WifiMcl {
-            name: name.to_owned(),
+            // Room for the larger of the tracking and the global counts.
+            core: FilterCore::new(name, cap, seed),
             motion: OdometryMotionModel::new(params.alpha),
-            rng: ChaCha8Rng::seed_from_u64(seed),
             cutoff,
-            set: ParticleSet::with_capacity(cap),
             z: vec![f64::NAN; n_ap],
             free,
             free_step,
             unknown: 0,
-            carry: CarriedEstimate::default(),
             fit: FitTracker::default(),
             space,
             off_map: vec![false; cap],
@@ -260,8 +251,9 @@ impl WifiMcl {
             InitialBelief::Tracking { .. } => {
                 let n = self.params.particles;
                 // A tracking belief needs no extent.
-                self.set
-                    .sample_initial_belief(n, init, [0.0; 4], &mut self.rng)?;
+                self.core
+                    .set
+                    .sample_initial_belief(n, init, [0.0; 4], &mut self.core.rng)?;
             }
             InitialBelief::Global { regions } => {
                 if !regions.is_empty() {
@@ -280,26 +272,22 @@ impl WifiMcl {
                     step: self.free_step,
                     space: self.params.constrain_to_map.then_some(&self.space),
                 };
-                self.set.sample(n, &mut self.rng, |rng| {
+                self.core.set.sample(n, &mut self.core.rng, |rng| {
                     Ok::<_, LocalizationError>(draw.draw(rng))
                 })?;
             }
         }
-        self.compute_estimate();
+        self.core.refresh_estimate(PointEstimate::WeightedMean);
         Ok(())
     }
 
     pub fn particle_count(&self) -> usize {
-        self.set.len()
+        self.core.set.len()
     }
 
     /// Readings (over all scans so far) of access points the graph does not know.
     pub fn unknown_readings(&self) -> usize {
         self.unknown
-    }
-
-    pub fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
-        self.set.iter()
     }
 
     /// Loads a scan into `z` (per graph AP, NaN when missing). Returns the readings used.
@@ -354,32 +342,32 @@ impl WifiMcl {
     /// The likelihood of `scan` at every particle, into the weights; then resampling.
     fn sensor_update(&mut self, scan: &WifiScan) {
         self.load_scan(scan);
-        let n = self.set.len();
+        let n = self.core.set.len();
         let limit = self.params.max_untrained;
         for i in 0..n {
-            let p = self.set.pose(i);
+            let p = self.core.set.pose(i);
             let (l, untrained) = self.log_likelihood_and_untrained(p.x, p.y);
-            self.set.log_likelihoods_mut()[i] = self.params.exponent * l;
+            self.core.set.log_likelihoods_mut()[i] = self.params.exponent * l;
             // Off the graph counts as off the map (applied below, after the fit).
             if limit < 1.0 && untrained > limit {
                 self.off_map[i] = true;
             }
         }
         self.fit.record(
-            self.carry.stamp,
-            per_unit_log_mean(self.set.log_likelihoods(), self.z.len()),
+            self.core.carry.stamp,
+            per_unit_log_mean(self.core.set.log_likelihoods(), self.z.len()),
         );
         // The map's verdict on the last motion (after the fit: that measures the scan alone).
         let off_map_log = OFF_MAP_WEIGHT.ln();
-        let logw = self.set.log_likelihoods_mut();
+        let logw = self.core.set.log_likelihoods_mut();
         for (l, off) in logw.iter_mut().zip(&mut self.off_map[..n]) {
             if *off {
                 *l += off_map_log;
                 *off = false;
             }
         }
-        self.set.weigh_by_log_likelihoods();
-        self.compute_estimate();
+        self.core.set.weigh_by_log_likelihoods();
+        self.core.refresh_estimate(PointEstimate::WeightedMean);
         let draw = RandomPoses {
             free: &self.free,
             step: self.free_step,
@@ -389,8 +377,9 @@ impl WifiMcl {
             p if p > 0.0 => Injection::Probability(p),
             _ => Injection::None,
         };
-        self.set
-            .resample(self.params.particles, inject, &mut self.rng, |rng| {
+        self.core
+            .set
+            .resample(self.params.particles, inject, &mut self.core.rng, |rng| {
                 draw.draw(rng)
             });
     }
@@ -398,10 +387,10 @@ impl WifiMcl {
     fn apply_motion(&mut self) {
         let constrain = self.params.constrain_to_map && !self.space.is_empty();
         let (space, walls, off_map) = (&self.space, self.params.walls, &mut self.off_map);
-        self.set.propagate_constrained(
+        self.core.set.propagate_constrained(
             &self.motion,
-            &mut self.carry.pending,
-            &mut self.rng,
+            &mut self.core.carry.pending,
+            &mut self.core.rng,
             |i, [x0, y0], [mut x, mut y, th]| {
                 // 004 §2.3: the robot is constrained to the graph. A particle that went
                 // through a wall (with `walls`) is weighted down at the next scan; one that
@@ -424,11 +413,6 @@ impl WifiMcl {
                 [x, y, th]
             },
         );
-    }
-
-    fn compute_estimate(&mut self) {
-        self.carry
-            .set(self.set.estimate(PointEstimate::WeightedMean));
     }
 }
 
@@ -456,49 +440,36 @@ impl RandomPoses<'_> {
     }
 }
 
-impl Localizer for WifiMcl {
-    fn name(&self) -> &str {
-        &self.name
+impl ParticleFilter for WifiMcl {
+    fn core(&self) -> &FilterCore {
+        &self.core
     }
 
-    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
-        self.carry.accumulate(delta);
-        Ok(())
+    fn core_mut(&mut self) -> &mut FilterCore {
+        &mut self.core
     }
 
     /// WiFi scans only (odometry arrives through `predict`).
-    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
-        let Reading::Wifi(scan) = reading else {
-            return Ok(());
-        };
-        self.carry.observed_at(scan.stamp);
-        self.apply_motion();
-        self.sensor_update(scan);
-        Ok(())
+    fn take_reading(&mut self, reading: &Reading) {
+        if let Reading::Wifi(scan) = reading {
+            self.core.carry.observed_at(scan.stamp);
+            self.apply_motion();
+            self.sensor_update(scan);
+        }
     }
 
-    fn estimate(&self) -> Estimate {
-        self.carry.estimate()
-    }
-
-    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
-        Some(self)
-    }
-}
-
-impl Capabilities for WifiMcl {
-    fn observation_fit(&self) -> Option<f64> {
-        self.fit.fit()
+    fn fit_tracker(&self) -> Option<&FitTracker> {
+        Some(&self.fit)
     }
 
     /// Redraws the tracking-size set (`particles`) around `pose`.
-    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+    fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         let n = self.params.particles;
-        let ok = self.set.sample_gaussian(n, pose, sigma, &mut self.rng);
+        let ok = self
+            .core
+            .reseed(n, pose, sigma, PointEstimate::WeightedMean);
         if ok {
             self.off_map[..n].fill(false);
-            self.carry.pending = Pose2::default();
-            self.compute_estimate();
         }
         ok
     }
@@ -508,6 +479,7 @@ impl Capabilities for WifiMcl {
 mod tests {
     use super::*;
     use crate::gp::SeKernel;
+    use crate::localizer::{Localizer, OdometryDelta};
     use crate::wifi_graph::GraphAp;
     use atrium_robots::WifiReading;
 
@@ -657,10 +629,10 @@ mod tests {
         .unwrap();
         // Half the set 0.5 m south of the north wall, half in the middle, all heading north;
         // the WiFi scan alone prefers the wall-side half (it was taken at y = 18).
-        for i in 0..f.set.len() {
+        for i in 0..f.core.set.len() {
             if i % 2 == 0 {
-                let p = f.set.pose(i);
-                f.set.set_pose(i, Pose2::new(p.x, 19.5, p.theta));
+                let p = f.core.set.pose(i);
+                f.core.set.set_pose(i, Pose2::new(p.x, 19.5, p.theta));
             }
         }
         drive(&mut f, Pose2::default(), Pose2::new(1.0, 0.0, 0.0), 1.0);

@@ -1,4 +1,7 @@
 use super::*;
+use crate::localizer::{Localizer, OdometryDelta};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::{FRAC_PI_2, PI};
 

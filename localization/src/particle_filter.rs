@@ -1,0 +1,156 @@
+//! The [`Localizer`] and [`Capabilities`] glue every particle filter of the crate shares, so
+//! that a filter writes only what is its own: how it takes a reading. Odometry is only
+//! accumulated (the motion model runs just before the next observation), and the estimate is
+//! the one of the last sensor update carried forward by the odometry received since.
+
+use crate::cluster::PointEstimate;
+use crate::error::LocalizationError;
+use crate::initial_belief::InitialBelief;
+use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
+use crate::motion::OdometryMotionModel;
+use crate::observation_fit::FitTracker;
+use crate::particle_set::ParticleSet;
+use crate::particles::CarriedEstimate;
+use atrium_robots::{IntensityImage, Pose2, Reading};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+/// What every particle filter keeps besides its sensor model: its name, its random stream,
+/// its particles and the estimate carried by odometry.
+#[derive(Debug, Clone)]
+pub struct FilterCore {
+    pub(crate) name: String,
+    pub(crate) rng: ChaCha8Rng,
+    pub(crate) set: ParticleSet,
+    pub(crate) carry: CarriedEstimate,
+}
+
+impl FilterCore {
+    /// An empty set with room for `capacity` particles and a stream seeded with `seed`.
+    pub fn new(name: &str, capacity: usize, seed: u64) -> FilterCore {
+        FilterCore {
+            name: name.to_owned(),
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            set: ParticleSet::with_capacity(capacity),
+            carry: CarriedEstimate::default(),
+        }
+    }
+
+    /// Draws `n` particles from `init` (see [`ParticleSet::sample_initial_belief`]) and
+    /// takes their estimate `kind`.
+    pub fn start(
+        &mut self,
+        n: usize,
+        init: &InitialBelief,
+        extent: [f64; 4],
+        kind: PointEstimate,
+    ) -> Result<(), LocalizationError> {
+        self.set
+            .sample_initial_belief(n, init, extent, &mut self.rng)?;
+        self.refresh_estimate(kind);
+        Ok(())
+    }
+
+    /// Moves the particles by the odometry not yet applied (see [`ParticleSet::propagate`]).
+    pub fn propagate(&mut self, motion: &OdometryMotionModel) {
+        self.set
+            .propagate(motion, &mut self.carry.pending, &mut self.rng);
+    }
+
+    /// Carries forward the estimate `kind` of the particles as they are now.
+    pub fn refresh_estimate(&mut self, kind: PointEstimate) {
+        self.carry.set(self.set.estimate(kind));
+    }
+
+    /// Redraws `n` particles around `pose` with standard deviations `sigma`, dropping the
+    /// odometry not yet applied (`pose` is a current estimate), and takes their estimate
+    /// `kind`. Returns false, leaving the filter alone, when the Gaussian is not valid.
+    pub fn reseed(&mut self, n: usize, pose: Pose2, sigma: [f64; 3], kind: PointEstimate) -> bool {
+        if !self.set.sample_gaussian(n, pose, sigma, &mut self.rng) {
+            return false;
+        }
+        self.carry.pending = Pose2::default();
+        self.refresh_estimate(kind);
+        true
+    }
+}
+
+/// A particle filter on a [`FilterCore`]; [`Localizer`] and [`Capabilities`] come with it.
+pub trait ParticleFilter: Send + 'static {
+    fn core(&self) -> &FilterCore;
+
+    fn core_mut(&mut self) -> &mut FilterCore;
+
+    /// The measurement update of [`Localizer::update`]: readings the filter does not use are
+    /// ignored, and one it cannot use is skipped (or counted), never an error.
+    fn take_reading(&mut self, reading: &Reading);
+
+    /// Runs before an odometry step is accumulated.
+    fn before_odometry(&mut self, _delta: &OdometryDelta) {}
+
+    /// The tracker behind [`Capabilities::observation_fit`], if the filter measures a fit.
+    fn fit_tracker(&self) -> Option<&FitTracker> {
+        None
+    }
+
+    /// [`Capabilities::reset_to`]; a filter that cannot be re-seeded keeps this default.
+    fn reseed(&mut self, _pose: Pose2, _sigma: [f64; 3]) -> bool {
+        false
+    }
+
+    /// The particles and their weights as of the last sensor update (odometry received since
+    /// is not applied to them; the estimate does apply it).
+    fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
+        self.core().set.iter()
+    }
+}
+
+impl<T: ParticleFilter> Localizer for T {
+    fn name(&self) -> &str {
+        &self.core().name
+    }
+
+    /// Accumulates odometry; the motion model runs just before the next sensor update.
+    fn predict(&mut self, delta: &OdometryDelta) -> Result<(), LocalizerError> {
+        self.before_odometry(delta);
+        self.core_mut().carry.accumulate(delta);
+        Ok(())
+    }
+
+    fn update(&mut self, reading: &Reading) -> Result<(), LocalizerError> {
+        self.take_reading(reading);
+        Ok(())
+    }
+
+    /// The estimate at the last sensor update, moved by the odometry received since, with
+    /// its covariance carried through the same composition (first order).
+    fn estimate(&self) -> Estimate {
+        self.core().carry.estimate()
+    }
+
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl<T: ParticleFilter> Capabilities for T {
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+
+    fn observation_fit(&self) -> Option<f64> {
+        self.fit_tracker().and_then(FitTracker::fit)
+    }
+
+    fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
+        self.reseed(pose, sigma)
+    }
+}
+
+/// The intensity image `reading` carries if it comes from `sensor`.
+pub fn intensity_from<'a>(reading: &'a Reading, sensor: &str) -> Option<&'a IntensityImage> {
+    match reading {
+        Reading::Intensity(img) if img.sensor == sensor => Some(img),
+        _ => None,
+    }
+}
