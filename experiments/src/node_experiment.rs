@@ -35,6 +35,8 @@ pub struct NodeExperimentSettings {
     /// Every node of every run must be verified by the landmark (not only reached by
     /// odometry).
     pub all_verified: bool,
+    /// At least this many node instants of the table (nodes × runs) verified by the landmark.
+    pub verified_min: Option<usize>,
     /// Bound on the filter's mean node error over the whole table, m.
     pub mean_error_max: Option<f64>,
     /// Bound on the filter's largest node error, m.
@@ -47,9 +49,10 @@ pub struct NodeExperimentSettings {
     /// The localizer the improvement is measured against (dead reckoning).
     pub baseline: String,
     /// Run-to-run spread of the odometry calibration: each run scales the scenario's
-    /// `radius_error` and `separation_error` by factors drawn uniformly from [1 − s, 1 + s]
-    /// (tyre pressure and load differ between runs of a real chair). 0: every run has the
-    /// scenario's calibration, and runs differ only in sensor noise.
+    /// `radius_error`, `separation_error` and `scale_error` by factors drawn uniformly (each
+    /// its own) from [1 − s, 1 + s] (tyre pressure and load differ between runs of a real
+    /// chair). 0: every run has the scenario's calibration, and runs differ only in sensor
+    /// noise.
     pub calibration_spread: f64,
     /// Also run the filter with 002's own reset (Table I update(): x, y := x_n, y_n, heading
     /// kept; `scan_alignment = false`, `gamma_rule = "rim"`) on the same seeds and
@@ -79,6 +82,7 @@ impl Default for NodeExperimentSettings {
             runs: 5,
             localizer: String::new(),
             all_verified: true,
+            verified_min: None,
             mean_error_max: None,
             max_error_max: None,
             reach_mean_max: None,
@@ -136,6 +140,13 @@ pub fn parse_settings(
             file,
             "node_experiment.calibration_spread",
             format!("must lie in [0, 1), got {}", s.calibration_spread),
+        ));
+    }
+    if s.verified_min == Some(0) {
+        return Err(ScenarioError::field(
+            file,
+            "node_experiment.verified_min",
+            "must be at least 1",
         ));
     }
     for (key, v) in [
@@ -206,8 +217,8 @@ pub struct NodeExperiment {
     /// The landmark filter whose node instants make the table.
     pub filter: String,
     pub seeds: Vec<u64>,
-    /// Per run: the odometry's (radius_error, separation_error).
-    pub calibration: Vec<(f64, f64)>,
+    /// Per run: the odometry's (radius_error, separation_error, scale_error).
+    pub calibration: Vec<(f64, f64, f64)>,
     /// The trained node models (γ_n and the γ range seen in training).
     pub models: Vec<NodeModel>,
     pub nodes: Vec<[f64; 2]>,
@@ -247,9 +258,19 @@ impl NodeExperiment {
             self.seeds.len(),
             self.seeds
         );
-        s.push_str("odometry calibration per run (radius_error, separation_error):");
-        for (a, b) in &self.calibration {
-            s.push_str(&format!(" ({a:.4}, {b:.4})"));
+        // The scale error is printed only where some run has one (older tables unchanged).
+        if self.calibration.iter().any(|c| c.2 != 0.0) {
+            s.push_str(
+                "odometry calibration per run (radius_error, separation_error, scale_error):",
+            );
+            for (a, b, c) in &self.calibration {
+                s.push_str(&format!(" ({a:.4}, {b:.4}, {c:.4})"));
+            }
+        } else {
+            s.push_str("odometry calibration per run (radius_error, separation_error):");
+            for (a, b, _) in &self.calibration {
+                s.push_str(&format!(" ({a:.4}, {b:.4})"));
+            }
         }
         s.push('\n');
         s.push_str(&self.tables_text());
@@ -477,8 +498,14 @@ fn run_variant(
         if spread > 0.0 {
             run.odometry.radius_error *= rng.random_range(1.0 - spread..=1.0 + spread);
             run.odometry.separation_error *= rng.random_range(1.0 - spread..=1.0 + spread);
+            // Drawn after the other two, so scenarios without a scale error keep their runs.
+            run.odometry.scale_error *= rng.random_range(1.0 - spread..=1.0 + spread);
         }
-        calibration.push((run.odometry.radius_error, run.odometry.separation_error));
+        calibration.push((
+            run.odometry.radius_error,
+            run.odometry.separation_error,
+            run.odometry.scale_error,
+        ));
         let result: RunResult = registry.run(
             &run,
             RunOptions {
@@ -540,6 +567,15 @@ fn checks(exp: &NodeExperiment, s: &NodeExperimentSettings) -> Vec<NodeCheck> {
             limit: 0.0,
             value: Some(n as f64),
             passed: n == 0,
+        });
+    }
+    if let Some(limit) = s.verified_min {
+        let n = exp.verified.iter().flatten().filter(|v| **v).count();
+        out.push(NodeCheck {
+            what: format!("{}: nodes verified by the landmark, at least", s.localizer),
+            limit: limit as f64,
+            value: Some(n as f64),
+            passed: n >= limit,
         });
     }
     let mean = filter.and_then(NodeTable::mean);
@@ -666,6 +702,24 @@ mod scenario_tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("route.nodes") && e.contains("controller"), "{e}");
+    }
+
+    #[test]
+    fn odometry_scale_error_is_read_and_checked() {
+        let route = "controller = \"nodes\"\nnodes = [[16.0, 23.0]]";
+        let s = scenario(route, "[odometry]\nscale_error = -0.03").unwrap();
+        assert_eq!(s.odometry.scale_error, -0.03);
+        // The wheelchair's sensor file has none: 0, the model without it.
+        assert_eq!(scenario(route, "").unwrap().odometry.scale_error, 0.0);
+        for bad in ["1.0", "-1.5", "nan", "inf"] {
+            let e = scenario(route, &format!("[odometry]\nscale_error = {bad}"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("t.toml: odometry.scale_error: must be"),
+                "{bad}: {e}"
+            );
+        }
     }
 
     #[test]

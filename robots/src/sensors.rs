@@ -23,10 +23,11 @@ const LASER_FIELDS: [&str; 12] = [
 ];
 
 /// Every field of [`OdometrySpec`], as named in TOML.
-const ODOMETRY_FIELDS: [&str; 4] = [
+const ODOMETRY_FIELDS: [&str; 5] = [
     "ticks_per_rev",
     "radius_error",
     "separation_error",
+    "scale_error",
     "rate_hz",
 ];
 
@@ -388,6 +389,14 @@ pub struct OdometrySpec {
     pub radius_error: f64,
     /// Relative error of the believed wheel separation: odometry uses b·(1 + e).
     pub separation_error: f64,
+    /// Common-mode (scale) error of the believed wheel radii: both are multiplied by
+    /// (1 + s), on top of `radius_error`'s split, so a straight drive over-reads its distance
+    /// by that factor (and a turn its angle) — Borenstein & Feng's scale error E_s beside E_d
+    /// (`radius_error`) and E_b (`separation_error`) [Borenstein 1996]. Positive for a tyre
+    /// that rolls on less than its nominal radius (a pneumatic tyre flattened under load).
+    /// Default 0.
+    #[serde(default)]
+    pub scale_error: f64,
     /// Odometry publication rate, Hz.
     pub rate_hz: f64,
 }
@@ -404,6 +413,7 @@ impl OdometrySpec {
         for (key, slot) in [
             ("radius_error", &mut spec.radius_error),
             ("separation_error", &mut spec.separation_error),
+            ("scale_error", &mut spec.scale_error),
             ("rate_hz", &mut spec.rate_hz),
         ] {
             if let Some(v) = number(table, key, field)? {
@@ -418,6 +428,7 @@ impl OdometrySpec {
     pub fn validate(&self) -> Result<(), String> {
         finite(self.radius_error, "radius_error")?;
         finite(self.separation_error, "separation_error")?;
+        finite(self.scale_error, "scale_error")?;
         finite(self.rate_hz, "rate_hz")?;
         if self.ticks_per_rev < 1 {
             return Err(format!(
@@ -438,6 +449,13 @@ impl OdometrySpec {
                 self.separation_error
             ));
         }
+        // A believed radius of zero or less (s ≤ −1) or twice the truth is no calibration.
+        if self.scale_error.abs() >= 1.0 {
+            return Err(format!(
+                "scale_error: must be within (-1, 1) (got {})",
+                self.scale_error
+            ));
+        }
         if self.rate_hz <= 0.0 {
             return Err(format!("rate_hz: must be > 0 (got {})", self.rate_hz));
         }
@@ -451,6 +469,7 @@ impl Default for OdometrySpec {
             ticks_per_rev: 500,
             radius_error: 0.005,
             separation_error: 0.01,
+            scale_error: 0.0,
             rate_hz: 50.0,
         }
     }

@@ -39,7 +39,8 @@ fn pioneer_sensor_file_sits_beside_its_urdf_and_matches_the_robot() {
             ticks_per_rev: 500,
             radius_error: 0.005,
             separation_error: 0.01,
-            rate_hz: 50.0
+            rate_hz: 50.0,
+            ..Default::default()
         }
     );
     assert_eq!(

@@ -813,9 +813,14 @@ impl Scenario {
             Some(t) => apply_overrides(&robot_sensors.odometry, t, file, "odometry")?,
             None => robot_sensors.odometry,
         };
+        // `validate` names the key first ("scale_error: must be …"): report it as
+        // `odometry.scale_error`.
         odometry
             .validate()
-            .map_err(|msg| ScenarioError::field(file, "odometry", msg))?;
+            .map_err(|msg| match msg.split_once(": ") {
+                Some((key, rest)) => ScenarioError::field(file, format!("odometry.{key}"), rest),
+                None => ScenarioError::field(file, "odometry", msg),
+            })?;
         let mut lasers = robot_sensors.lasers.clone();
         let mut camera_tables = Vec::new();
         if let Some(sensors) = &raw.sensors {

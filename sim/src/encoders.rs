@@ -61,7 +61,8 @@ pub struct Odometry {
 
 impl Odometry {
     /// `truth` is the robot's true geometry; the believed one follows `OdometrySpec`'s docs:
-    /// left radius r·(1 + e/2), right r·(1 − e/2), separation b·(1 + e_b).
+    /// left radius r·(1 + s)·(1 + e/2), right r·(1 + s)·(1 − e/2), separation b·(1 + e_b)
+    /// (s the common-mode `scale_error`, e the differential `radius_error`).
     pub fn new(spec: &OdometrySpec, truth: DiffDrive, start: Pose2) -> Result<Self, SimError> {
         if spec.ticks_per_rev == 0 {
             return Err(SimError::config("odometry.ticks_per_rev", "must be > 0"));
@@ -80,11 +81,20 @@ impl Odometry {
                 format!("must be finite and > −1, got {eb}"),
             ));
         }
+        let es = spec.scale_error;
+        if !(es.is_finite() && es.abs() < 1.0) {
+            return Err(SimError::config(
+                "odometry.scale_error",
+                format!("must be finite with |s| < 1, got {es}"),
+            ));
+        }
         crate::error::positive("odometry.rate_hz", spec.rate_hz)?;
+        // The common-mode radius error multiplies both radii; s = 0 leaves them bit-identical.
+        let r = truth.wheel_radius * (1.0 + es);
         Ok(Self {
             rad_per_tick: TAU / spec.ticks_per_rev as f64,
-            left_radius: truth.wheel_radius * (1.0 + 0.5 * e),
-            right_radius: truth.wheel_radius * (1.0 - 0.5 * e),
+            left_radius: r * (1.0 + 0.5 * e),
+            right_radius: r * (1.0 - 0.5 * e),
             separation: truth.wheel_separation * (1.0 + eb),
             pose: start,
             left_ticks: 0,
@@ -149,6 +159,7 @@ mod tests {
             radius_error: 0.02,
             separation_error: 0.05,
             rate_hz: 50.0,
+            ..Default::default()
         };
         let truth = DiffDrive {
             wheel_radius: 0.1,
@@ -166,6 +177,7 @@ mod tests {
             radius_error: 0.0,
             separation_error: 0.0,
             rate_hz: 50.0,
+            ..Default::default()
         };
         let truth = DiffDrive {
             wheel_radius: 0.1,
@@ -181,6 +193,75 @@ mod tests {
         // Opposite ticks turn in place: Δθ = (dr − dl)/b = 2·(250·2π/500·0.1)/0.4 = π/2.
         let p = o.update(750, 1250);
         assert!((p.theta - PI).abs() < 1e-12, "{p:?}");
+    }
+
+    #[test]
+    fn scale_error_over_reads_a_straight_drive_by_its_factor() {
+        // Both believed radii 3 % large (a tyre rolling on less than its nominal radius):
+        // 1000 ticks (0.4π m truly) read as 1.03 · 0.4π m, straight ahead, and a turn in place
+        // over-reads its angle by the same factor.
+        let spec = OdometrySpec {
+            ticks_per_rev: 500,
+            radius_error: 0.0,
+            separation_error: 0.0,
+            scale_error: 0.03,
+            rate_hz: 50.0,
+        };
+        let truth = DiffDrive {
+            wheel_radius: 0.1,
+            wheel_separation: 0.4,
+        };
+        let mut o = Odometry::new(&spec, truth, Pose2::default()).unwrap();
+        let (l, r, b) = o.believed_geometry();
+        assert!((l - 0.103).abs() < 1e-12 && (r - 0.103).abs() < 1e-12 && b == 0.4);
+        let p = o.update(1000, 1000);
+        assert!((p.x - 1.03 * 0.4 * PI).abs() < 1e-12, "{p:?}");
+        assert!(p.y.abs() < 1e-12 && p.theta.abs() < 1e-12, "{p:?}");
+        let p = o.update(750, 1250);
+        assert!((p.theta - 1.03 * PI / 2.0).abs() < 1e-12, "{p:?}");
+        // With the differential error too, the mean believed radius is r·(1 + s).
+        let spec = OdometrySpec {
+            radius_error: 0.02,
+            ..spec
+        };
+        let (l, r, _) = Odometry::new(&spec, truth, Pose2::default())
+            .unwrap()
+            .believed_geometry();
+        assert!((0.5 * (l + r) - 0.103).abs() < 1e-12 && (l - r - 0.103 * 0.02).abs() < 1e-12);
+        // s = 0 (the default) leaves the believed radii bit-identical to the model without it.
+        let spec = OdometrySpec {
+            scale_error: 0.0,
+            ..spec
+        };
+        let (l, r, _) = Odometry::new(&spec, truth, Pose2::default())
+            .unwrap()
+            .believed_geometry();
+        assert_eq!((l, r), (0.1 * (1.0 + 0.5 * 0.02), 0.1 * (1.0 - 0.5 * 0.02)));
+    }
+
+    #[test]
+    fn bad_scale_error_is_named() {
+        let truth = DiffDrive {
+            wheel_radius: 0.1,
+            wheel_separation: 0.4,
+        };
+        for s in [1.0, -1.0, f64::NAN, f64::INFINITY] {
+            let spec = OdometrySpec {
+                scale_error: s,
+                ..Default::default()
+            };
+            let e = Odometry::new(&spec, truth, Pose2::default())
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("odometry.scale_error"), "{s}: {e}");
+            let v = spec.validate().unwrap_err();
+            assert!(v.starts_with("scale_error: must be"), "{s}: {v}");
+        }
+        let spec = OdometrySpec {
+            scale_error: -0.5,
+            ..Default::default()
+        };
+        assert!(spec.validate().is_ok() && Odometry::new(&spec, truth, Pose2::default()).is_ok());
     }
 
     #[test]

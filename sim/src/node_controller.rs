@@ -498,6 +498,7 @@ mod physics_tests {
                 radius_error: 0.0,
                 separation_error: 0.0,
                 rate_hz: 50.0,
+                ..Default::default()
             },
             ..Default::default()
         };

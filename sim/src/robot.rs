@@ -617,6 +617,7 @@ mod skid_steer_tests {
                 radius_error: 0.0,
                 separation_error: 0.0,
                 rate_hz: 50.0,
+                ..Default::default()
             },
             ..Default::default()
         };

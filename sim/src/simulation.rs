@@ -611,6 +611,7 @@ mod tests {
             radius_error: 0.0,
             separation_error: 0.0,
             rate_hz: 50.0,
+            ..Default::default()
         }
     }
 

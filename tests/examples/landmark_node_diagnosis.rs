@@ -2,7 +2,7 @@
 //! `DIAG_SCENARIO=<scenario> DIAG_SEEDS=1,2 cargo run --release -p atrium-tests --example
 //! landmark_node_diagnosis -- diagnose|gamma_map|approach_profile`. `diagnose`: per node, γ against γ_n,
 //! the true distance when γ first fell below γ_n and when odometry entered ρ, and the heading
-//! error at the node; `gamma_map`: settled γ on rings around each node (`DIAG_HR`, `DIAG_MR`);
+//! error at the node (`DIAG_CAL` sets the odometry per seed, as for `oracle`); `gamma_map`: settled γ on rings around each node (`DIAG_HR`, `DIAG_MR`);
 //! `approach_profile`: γ along the teach-run approach (002 Fig. 4c).
 
 use atrium_localization::landmark_filter::LandmarkFilter;
@@ -83,7 +83,10 @@ fn diagnose() {
         .split(',')
         .map(|s| s.parse().unwrap())
         .collect();
-    let scenario = Scenario::load(std::path::Path::new(&path)).unwrap();
+    let mut scenario = Scenario::load(std::path::Path::new(&path)).unwrap();
+    if std::env::var("DIAG_PAPER").is_ok() {
+        paper_params(&mut scenario);
+    }
     let route = scenario.node_route.clone().unwrap();
     let spec = scenario.localizers[0].clone();
     let filter = train_landmark_filter(&spec, &scenario).unwrap();
@@ -93,7 +96,8 @@ fn diagnose() {
             m.node, m.gamma_n, m.gamma_inside_max, m.gamma_outside_min
         );
     }
-    for seed in seeds {
+    let cal = diag_cal();
+    for (i, seed) in seeds.into_iter().enumerate() {
         let rows = Arc::new(Mutex::new(Vec::new()));
         let spy = Spy {
             inner: filter.clone(),
@@ -101,6 +105,7 @@ fn diagnose() {
         };
         let mut one = scenario.clone();
         one.localizers.truncate(1);
+        set_cal(&mut one, cal.get(i));
         let mut stream = SimStream::new(&one, seed).unwrap();
         let mut truth = Truth(Vec::new());
         let result = run_localizers(
@@ -123,7 +128,10 @@ fn diagnose() {
         };
         println!("seed {seed}");
         let models = filter.models();
+        let mut from = [scenario.start.x, scenario.start.y];
         for (n, node) in route.nodes.iter().enumerate() {
+            let dir = (node[1] - from[1]).atan2(node[0] - from[0]);
+            from = *node;
             let leg: Vec<&Row> = rows.iter().filter(|r| r.next == n).collect();
             let d = |p: &Pose2| (p.x - node[0]).hypot(p.y - node[1]);
             // gamma minimum over the leg, with true distance there.
@@ -148,11 +156,18 @@ fn diagnose() {
                 .find(|e| e.node == n);
             let ev_s = ev.map(|e| {
                 let tr = truth_at(e.stamp);
+                // The true position in the leg's frame: along (negative: short of the node)
+                // and to the left of the leg.
+                let (dx, dy) = (tr.x - node[0], tr.y - node[1]);
+                let along = dx * dir.cos() + dy * dir.sin();
+                let left = -dx * dir.sin() + dy * dir.cos();
                 format!(
-                    "{} true {:.3} heading err {:.1} deg",
+                    "{} true {:.3} (along {:+.2}, left {:+.2}) heading err {:.1} deg",
                     if e.verified { "VER" } else { "odo" },
                     d(&tr),
-                    (e.pose.theta - tr.theta).to_degrees()
+                    along,
+                    left,
+                    atrium_robots::normalize_angle(e.pose.theta - tr.theta).to_degrees()
                 )
             });
             println!(
@@ -281,13 +296,248 @@ fn approach_profile() {
     }
 }
 
+/// The parameters `[node_experiment] paper_reset` runs 002's reset with (`DIAG_PAPER=1`).
+fn paper_params(scenario: &mut Scenario) {
+    let p = &mut scenario.localizers[0].params;
+    p.insert("scan_alignment".into(), toml::Value::Boolean(false));
+    p.insert("gamma_rule".into(), toml::Value::String("rim".into()));
+    p.remove("model_radius");
+}
+
+/// The best any landmark could do under 002's gate and reset (`oracle`): a node counts as
+/// recognised on the first scan (after the warm-up) at which the odometry is within ρ of the
+/// node (Algorithm 1 line 12) and the robot truly is within `DIAG_TRUE_R` of it (default ρ),
+/// and the reset is Table I's (x, y := node, heading kept). Per run: the true distance at
+/// each node instant and dead reckoning's error there. `DIAG_CAL="r,s[,k];r,s[,k];..."` sets
+/// the odometry calibration (radius_error, separation_error and, if given, scale_error) per
+/// seed in `DIAG_SEEDS` order.
+struct Oracle {
+    nodes: Vec<[f64; 2]>,
+    rho: f64,
+    true_r: f64,
+    gamma_d: f64,
+    pose: Pose2,
+    dr: Pose2,
+    next: usize,
+    leg: Option<atrium_robots::node_route::Leg>,
+    steps: usize,
+    truth: Arc<Mutex<Pose2>>,
+    pending: Option<usize>,
+    /// (node, verified, true distance, dead-reckoning error, heading error of the pose)
+    events: Arc<Mutex<Vec<(usize, bool, f64, f64, f64)>>>,
+}
+
+impl Oracle {
+    fn arrive(&mut self, verified: bool) {
+        let node = self.nodes[self.next];
+        let tr = *self.truth.lock().unwrap();
+        self.events.lock().unwrap().push((
+            self.next,
+            verified,
+            (tr.x - node[0]).hypot(tr.y - node[1]),
+            self.dr.distance(&tr),
+            atrium_robots::normalize_angle(self.pose.theta - tr.theta).to_degrees(),
+        ));
+        self.pose.x = node[0];
+        self.pose.y = node[1];
+        if verified {
+            self.pending = Some(self.next);
+        }
+        self.next += 1;
+        self.steps = 0;
+        self.leg = self
+            .nodes
+            .get(self.next)
+            .map(|n| atrium_robots::node_route::Leg {
+                from: node,
+                node: *n,
+            });
+    }
+}
+
+impl Localizer for Oracle {
+    fn name(&self) -> &str {
+        "oracle"
+    }
+    fn predict(&mut self, d: &OdometryDelta) -> Result<(), LocalizerError> {
+        let step = d.from.between(&d.to);
+        self.pose = self.pose.compose(&step);
+        self.dr = self.dr.compose(&step);
+        if let Some(leg) = self.leg {
+            if leg.reached(&self.pose, self.gamma_d) {
+                self.arrive(false);
+            }
+        }
+        Ok(())
+    }
+    fn update(&mut self, r: &Reading) -> Result<(), LocalizerError> {
+        let (Reading::Laser(_), Some(leg)) = (r, self.leg) else {
+            return Ok(());
+        };
+        self.steps += 1;
+        let node = self.nodes[self.next];
+        let tr = *self.truth.lock().unwrap();
+        if self.steps > 30
+            && leg.current(&self.pose) <= self.rho
+            && (tr.x - node[0]).hypot(tr.y - node[1]) <= self.true_r
+        {
+            self.arrive(true);
+        }
+        Ok(())
+    }
+    fn estimate(&self) -> Estimate {
+        Estimate {
+            stamp: 0.0,
+            pose: self.pose,
+            covariance: Default::default(),
+        }
+    }
+    fn capabilities(&mut self) -> Option<&mut dyn Capabilities> {
+        Some(self)
+    }
+}
+
+impl Capabilities for Oracle {
+    fn take_node_verification(&mut self) -> Option<usize> {
+        self.pending.take()
+    }
+}
+
+struct LatestTruth(Arc<Mutex<Pose2>>);
+impl RunObserver for LatestTruth {
+    fn instant(
+        &mut self,
+        tick: &Tick,
+        _: &[Reading],
+        _: Option<&[Estimate]>,
+    ) -> Result<(), ScenarioError> {
+        if let Some(t) = tick.truth {
+            *self.0.lock().unwrap() = t;
+        }
+        Ok(())
+    }
+}
+
+/// `DIAG_CAL="r,s[,k];..."`: per seed (in `DIAG_SEEDS` order) the odometry's radius_error,
+/// separation_error and, if given, scale_error (`oracle` and `diagnose`).
+fn diag_cal() -> Vec<(f64, f64, Option<f64>)> {
+    std::env::var("DIAG_CAL")
+        .map(|c| {
+            c.split(';')
+                .map(|p| {
+                    let v: Vec<f64> = p.split(',').map(|x| x.parse().unwrap()).collect();
+                    (v[0], v[1], v.get(2).copied())
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn set_cal(s: &mut Scenario, cal: Option<&(f64, f64, Option<f64>)>) {
+    if let Some(&(r, e, k)) = cal {
+        s.odometry.radius_error = r;
+        s.odometry.separation_error = e;
+        if let Some(k) = k {
+            s.odometry.scale_error = k;
+        }
+    }
+}
+
+fn oracle() {
+    let path = std::env::var("DIAG_SCENARIO").unwrap_or_else(|_| {
+        atrium_scenarios::bundled_scenarios_dir()
+            .join("wheelchair_nodes.toml")
+            .display()
+            .to_string()
+    });
+    let seeds: Vec<u64> = std::env::var("DIAG_SEEDS")
+        .unwrap_or_else(|_| "1".into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let cal = diag_cal();
+    let true_r: f64 = std::env::var("DIAG_TRUE_R")
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(0.25);
+    let scenario = Scenario::load(std::path::Path::new(&path)).unwrap();
+    let route = scenario.node_route.clone().unwrap();
+    let (mut reach_all, mut dr_all, mut ver) = (Vec::new(), Vec::new(), 0);
+    for (i, seed) in seeds.iter().enumerate() {
+        let mut one = scenario.clone();
+        one.localizers.truncate(1);
+        set_cal(&mut one, cal.get(i));
+        let truth = Arc::new(Mutex::new(one.start));
+        let events = Arc::new(Mutex::new(Vec::new()));
+        let o = Oracle {
+            nodes: route.nodes.clone(),
+            rho: 0.25,
+            true_r,
+            gamma_d: route.params.gamma_d,
+            pose: one.start,
+            dr: one.start,
+            next: 0,
+            leg: Some(atrium_robots::node_route::Leg {
+                from: [one.start.x, one.start.y],
+                node: route.nodes[0],
+            }),
+            steps: 0,
+            truth: truth.clone(),
+            pending: None,
+            events: events.clone(),
+        };
+        let mut stream = SimStream::new(&one, *seed).unwrap();
+        let mut obs = LatestTruth(truth);
+        run_localizers(
+            &one,
+            *seed,
+            &mut stream,
+            &[],
+            vec![Box::new(o)],
+            RunOptions {
+                seed: Some(*seed),
+                observer: Some(&mut obs),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        print!(
+            "seed {seed} ({:.4}, {:.4}, {:.4}):",
+            one.odometry.radius_error, one.odometry.separation_error, one.odometry.scale_error
+        );
+        for (n, v, d, e, th) in events.lock().unwrap().iter() {
+            print!(
+                " n{} {}{:.0}/{:.0} ({:+.1} deg)",
+                n + 1,
+                if *v { "" } else { "*" },
+                1000.0 * d,
+                1000.0 * e,
+                th
+            );
+            reach_all.push(*d);
+            dr_all.push(*e);
+            ver += *v as usize;
+        }
+        println!();
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    println!(
+        "oracle (true radius {true_r} m): verified {ver}/{}, true distance at the node instants \
+         mean {:.0} mm, max {:.0} mm; dead reckoning there mean {:.0} mm",
+        reach_all.len(),
+        1000.0 * mean(&reach_all),
+        1000.0 * reach_all.iter().cloned().fold(0.0, f64::max),
+        1000.0 * mean(&dr_all)
+    );
+}
+
 fn main() {
     match std::env::args().nth(1).as_deref() {
         Some("diagnose") => diagnose(),
         Some("gamma_map") => gamma_map(),
         Some("approach_profile") => approach_profile(),
+        Some("oracle") => oracle(),
         other => {
-            eprintln!("usage: landmark_node_diagnosis diagnose|gamma_map|approach_profile (got {other:?})");
+            eprintln!("usage: landmark_node_diagnosis diagnose|gamma_map|approach_profile|oracle (got {other:?})");
             std::process::exit(2);
         }
     }
