@@ -34,6 +34,7 @@ pub mod particle_set;
 pub mod particles;
 pub mod pca;
 pub mod resampling;
+pub mod scan_match;
 pub mod wifi_graph;
 pub mod wifi_mcl;
 

@@ -248,6 +248,11 @@ impl LikelihoodField {
         self.resolution
     }
 
+    /// The world position of the grid's corner (cell (0, 0)'s lower left).
+    pub fn origin(&self) -> [f64; 2] {
+        self.origin
+    }
+
     pub fn size(&self) -> (usize, usize) {
         (self.width, self.height)
     }
@@ -268,6 +273,33 @@ impl LikelihoodField {
     /// Distance to the nearest occupied cell (capped), `None` outside the grid.
     pub fn distance(&self, x: f64, y: f64) -> Option<f64> {
         self.cell_index(x, y).map(|k| self.dist[k])
+    }
+
+    /// Distance to the nearest wall surface at (x, y) and its gradient (∂d/∂x, ∂d/∂y),
+    /// interpolated bilinearly between the four nearest cell centres (the gradient is the
+    /// interpolant's own). In the outermost half cell the values are those at the nearest
+    /// cell centres' edge; `None` outside the grid (or at NaN) and on grids under 2 × 2.
+    #[inline]
+    pub fn distance_and_gradient(&self, x: f64, y: f64) -> Option<(f64, f64, f64)> {
+        self.cell_index(x, y)?;
+        if self.width < 2 || self.height < 2 {
+            return None;
+        }
+        let (umax, vmax) = ((self.width - 1) as f64, (self.height - 1) as f64);
+        let u = ((x - self.origin[0]) * self.inv_resolution - 0.5).clamp(0.0, umax - 1e-9);
+        let v = ((y - self.origin[1]) * self.inv_resolution - 0.5).clamp(0.0, vmax - 1e-9);
+        let (i, j) = (u as usize, v as usize);
+        let (fu, fv) = (u - i as f64, v - j as f64);
+        let w = self.width;
+        let k = j * w + i;
+        let corners = &self.dist[k..k + w + 2];
+        let (a, b, c, d) = (corners[0], corners[1], corners[w], corners[w + 1]);
+        let bottom = a + (b - a) * fu;
+        let top = c + (d - c) * fu;
+        let dist = bottom + (top - bottom) * fv;
+        let gu = (b - a) * (1.0 - fv) + (d - c) * fv;
+        let gv = top - bottom;
+        Some((dist, gu * self.inv_resolution, gv * self.inv_resolution))
     }
 
     /// Log-likelihood of a beam endpoint at (x, y), interpolated bilinearly between the four

@@ -9,12 +9,13 @@ use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
 use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
-    check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
+    check_count, check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
 };
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::FitTracker;
 use crate::particle_filter::{FilterCore, ParticleFilter};
 use crate::resampling::ResamplePolicy;
+use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -92,6 +93,16 @@ pub struct MclParams {
     /// several hypotheses a random walk, and a globally localizing filter can lose the true
     /// one before the robot sees what tells them apart ([Thrun 2005] §4.3.4).
     pub resample_ess: f64,
+    /// Global belief only: seed the filter from its first scan instead of uniformly. This
+    /// many poses are drawn uniformly over the belief, the max_particles whose scan endpoints
+    /// lie closest to the walls are kept and each is brought into its local optimum by scan
+    /// matching (`scan_match`), and the first update weighs those. Uniform particles almost
+    /// never fall within the degree and decimetre of the true pose that a sharp field
+    /// (sigma_hit 0.1 m, 60 beams) rewards, so an aliased place that a particle happens to
+    /// fit wins ([Thrun 2001]; measured on `global_localization`, NOTES.md). The kept poses
+    /// are weighed by the likelihood alone, not divided by how densely the matcher gathers
+    /// them: each local optimum stands for a hypothesis. Default 0: uniform particles.
+    pub global_samples: usize,
 }
 
 /// Which laser model an MCL filter weighs particles with.
@@ -128,6 +139,7 @@ impl Default for MclParams {
             z_max: 0.05,
             lambda_short: 0.1,
             resample_ess: 0.0,
+            global_samples: 0,
         }
     }
 }
@@ -182,6 +194,12 @@ impl MclParams {
         check_count_min1(
             "max_particles",
             self.max_particles,
+            MAX_GLOBAL_PARTICLES,
+            "MAX_GLOBAL_PARTICLES",
+        )?;
+        check_count(
+            "global_samples",
+            self.global_samples,
             MAX_GLOBAL_PARTICLES,
             "MAX_GLOBAL_PARTICLES",
         )?;
@@ -268,14 +286,16 @@ pub struct Mcl {
     /// The KLD-adapted size and the bins it counts.
     kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
-    beam_x: Vec<f64>,
-    beam_y: Vec<f64>,
+    beams: Beams,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
     grid_resolution: f64,
     grid_width: usize,
     updated_once: bool,
+    /// The belief's free cells while the first scan has yet to seed a global belief (see
+    /// `global_samples`).
+    seed_from_scan: Option<Arc<Vec<u32>>>,
     w_slow: f64,
     w_fast: f64,
     /// Sensing mismatch (004 §4.2) per beam, on its own time-based averages (w_slow and
@@ -397,8 +417,11 @@ impl Mcl {
             ));
         }
         let m = params.max_particles;
+        let capacity = match init {
+            InitialBelief::Global { .. } | InitialBelief::Tracking { .. } => m,
+        };
         let mut mcl = Mcl {
-            core: FilterCore::new(name, m, seed),
+            core: FilterCore::new(name, capacity, seed),
             motion: OdometryMotionModel::new(params.alpha),
             kld: KldSampling::new(
                 params.min_particles,
@@ -407,13 +430,13 @@ impl Mcl {
                 params.kld_delta,
                 params.kld_bin,
             ),
-            beam_x: Vec::with_capacity(params.max_beams),
-            beam_y: Vec::with_capacity(params.max_beams),
+            beams: Beams::with_capacity(params.max_beams),
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
             grid_width: map.width,
             updated_once: false,
+            seed_from_scan: None,
             w_slow: 0.0,
             w_fast: 0.0,
             fit: Default::default(),
@@ -484,6 +507,9 @@ impl Mcl {
                 InitialBelief::Tracking { pose, sigma } => gaussian_pose(pose, sigma, rng),
                 InitialBelief::Global { .. } => random_pose(&region_cells, origin, res, width, rng),
             });
+        if matches!(init, InitialBelief::Global { .. }) && self.params.global_samples > 0 {
+            self.seed_from_scan = Some(Arc::new(region_cells));
+        }
         self.core.refresh_estimate(self.params.estimate);
         Ok(())
     }
@@ -515,71 +541,76 @@ impl Mcl {
         }
     }
 
-    /// For the beam model: up to max_beams beams with a reading, max-range ones included
-    /// (they say "nothing within range here", which the likelihood field cannot use), evenly
-    /// spread; `beam_x` holds their angles in the laser frame, `beam_y` their ranges.
-    fn select_beams_with_max_range(&mut self, scan: &LaserScan) -> usize {
-        self.beam_x.clear();
-        self.beam_y.clear();
-        let usable = |r: f64| r.is_finite() && r >= scan.range_min;
-        let (bx, by) = (&mut self.beam_x, &mut self.beam_y);
-        evenly_spread(&scan.ranges, usable, self.params.max_beams, |i| {
-            bx.push(scan.beam_angle(i));
-            by.push(scan.ranges[i].min(scan.range_max));
-        });
-        self.beam_x.len()
+    /// Replaces the particles by max_particles poses drawn from `scan` (see
+    /// `global_samples`): global_samples uniform poses over `cells`, the max_particles whose
+    /// endpoints have the least truncated cost kept, each refined by scan matching. False,
+    /// leaving the particles alone, for a scan without a valid beam.
+    fn seed_global_from_scan(&mut self, scan: &LaserScan, cells: &[u32]) -> bool {
+        let mut endpoints = Beams::with_capacity(self.params.max_beams);
+        if endpoints.select_endpoints(scan, self.params.max_beams) == 0 {
+            return false;
+        }
+        let params = ScanMatchParams::default();
+        let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
+        let (field, bx, by) = (&*self.field, &endpoints.x, &endpoints.y);
+        // Ranked on 0.1 m cells (see CoarseDistance), refined on the field's own.
+        let coarse = CoarseDistance::new(field, (0.1 / res).round().max(1.0) as usize);
+        let rng = &mut self.core.rng;
+        let mut candidates: Vec<(f64, Pose2)> = (0..self.params.global_samples)
+            .map(|_| {
+                let p = random_pose(cells, origin, res, width, rng);
+                (coarse.truncated_cost(bx, by, &p, params.truncation), p)
+            })
+            .collect();
+        let keep = self.params.max_particles.min(candidates.len());
+        if keep < candidates.len() {
+            candidates.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));
+            candidates.truncate(keep);
+        }
+        for (i, (_, p)) in candidates.into_iter().enumerate() {
+            let q = refine(field, bx, by, p, &params).0;
+            self.core.set.set_pose(i, q);
+        }
+        self.core.set.make_uniform(keep);
+        true
     }
 
-    /// Picks up to max_beams valid beams, evenly spread over the valid ones, and stores
-    /// their endpoints in the base frame. Returns how many.
-    fn select_beams(&mut self, scan: &LaserScan) -> usize {
-        self.beam_x.clear();
-        self.beam_y.clear();
-        let valid = |r: f64| r.is_finite() && r >= scan.range_min && r < scan.range_max;
-        let (bx, by) = (&mut self.beam_x, &mut self.beam_y);
-        evenly_spread(&scan.ranges, valid, self.params.max_beams, |i| {
-            let (a, r) = (scan.beam_angle(i), scan.ranges[i]);
-            let p = scan.mount.transform_point([r * a.cos(), r * a.sin()]);
-            bx.push(p[0]);
-            by.push(p[1]);
-        });
-        self.beam_x.len()
+    /// The sensor model's log-likelihood of `scan` at each of `poses` of the robot, with the
+    /// beams an update would use: what the filter weighs a pose by, for diagnostics.
+    pub fn scan_log_likelihoods(&self, scan: &LaserScan, poses: &[Pose2]) -> Vec<f64> {
+        let mut field = std::borrow::Cow::Borrowed(self.field.as_ref());
+        if needs_range(&field, scan.range_max) {
+            field.to_mut().set_range_max(scan.range_max);
+        }
+        let mut beams = Beams::with_capacity(self.params.max_beams);
+        let mut out = vec![0.0; poses.len()];
+        if beams.select(scan, &self.params) > 0 {
+            let x: Vec<f64> = poses.iter().map(|p| p.x).collect();
+            let y: Vec<f64> = poses.iter().map(|p| p.y).collect();
+            let th: Vec<f64> = poses.iter().map(|p| p.theta).collect();
+            let model = ScanModel::new(&field, &self.params, &beams, scan);
+            model.log_likelihoods(&x, &y, &th, &mut out);
+        }
+        out
     }
 
     fn sensor_update(&mut self, scan: &LaserScan) {
-        // The same test as set_range_max's, so a shared table is copied only when it will
-        // really change.
-        let r = scan.range_max;
-        if r != self.field.params().range_max && r.is_finite() && r > 0.0 {
-            Arc::make_mut(&mut self.field).set_range_max(r);
+        if needs_range(&self.field, scan.range_max) {
+            Arc::make_mut(&mut self.field).set_range_max(scan.range_max);
         }
-        let nb = match self.params.sensor_model {
-            SensorModel::LikelihoodField => self.select_beams(scan),
-            SensorModel::Beam => self.select_beams_with_max_range(scan),
-        };
+        if let Some(cells) = self.seed_from_scan.take() {
+            if !self.seed_global_from_scan(scan, &cells) {
+                self.seed_from_scan = Some(cells);
+            }
+        }
+        let nb = self.beams.select(scan, &self.params);
         if nb == 0 {
             return;
         }
-        let field = &self.field;
-        let (bx, by) = (&self.beam_x[..nb], &self.beam_y[..nb]);
-        match self.params.sensor_model {
-            SensorModel::LikelihoodField => self.core.set.reweight_log_columns(|x, y, th, out| {
-                field.scan_log_likelihoods(bx, by, x, y, th, out)
-            }),
-            SensorModel::Beam => {
-                let (bp, mount, range_max) = (self.params.beam_params(), scan.mount, r);
-                self.core.set.reweight_log(|px, py, th| {
-                    let o = Pose2::new(px, py, th).compose(&mount);
-                    let mut l = 0.0;
-                    for (&a, &z) in bx.iter().zip(by) {
-                        let (s, c) = (o.theta + a).sin_cos();
-                        let z_star = cast_ray(field, o.x, o.y, c, s, range_max);
-                        l += beam_probability(z, z_star, range_max, &bp).ln();
-                    }
-                    l
-                })
-            }
-        }
+        let model = ScanModel::new(&self.field, &self.params, &self.beams, scan);
+        self.core
+            .set
+            .reweight_log_columns(|x, y, th, out| model.log_likelihoods(x, y, th, out));
         let n = self.core.set.len();
         let inv_nb = 1.0 / nb as f64;
         let mut per_beam = 0.0;
@@ -622,6 +653,114 @@ impl Mcl {
             .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
                 random_pose(cells, origin, res, width, rng)
             });
+    }
+}
+
+/// Whether the field's table must be rebuilt for scans of `range_max` (the same test as
+/// [`LikelihoodField::set_range_max`]'s, so a shared table is copied only when it will
+/// really change).
+fn needs_range(field: &LikelihoodField, range_max: f64) -> bool {
+    range_max != field.params().range_max && range_max.is_finite() && range_max > 0.0
+}
+
+/// The beams of one scan an update weighs, selected by [`Beams::select`]. Likelihood field:
+/// endpoints in the base frame; beam model: angles in the laser frame and ranges.
+#[derive(Debug, Clone)]
+struct Beams {
+    x: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Beams {
+    fn with_capacity(n: usize) -> Beams {
+        Beams {
+            x: Vec::with_capacity(n),
+            y: Vec::with_capacity(n),
+        }
+    }
+
+    /// Picks up to max_beams beams, evenly spread over the usable ones; returns how many.
+    /// Likelihood field: see [`Beams::select_endpoints`]. Beam model: every beam with a
+    /// reading, max-range ones included (they say "nothing within range here"), as angles
+    /// and ranges.
+    fn select(&mut self, scan: &LaserScan, params: &MclParams) -> usize {
+        match params.sensor_model {
+            SensorModel::LikelihoodField => self.select_endpoints(scan, params.max_beams),
+            SensorModel::Beam => {
+                self.x.clear();
+                self.y.clear();
+                let (bx, by) = (&mut self.x, &mut self.y);
+                let usable = |r: f64| r.is_finite() && r >= scan.range_min;
+                evenly_spread(&scan.ranges, usable, params.max_beams, |i| {
+                    bx.push(scan.beam_angle(i));
+                    by.push(scan.ranges[i].min(scan.range_max));
+                });
+                self.x.len()
+            }
+        }
+    }
+
+    /// The endpoints (base frame) of up to `max` valid beams, evenly spread over them (a
+    /// max-range reading has no endpoint); returns how many.
+    fn select_endpoints(&mut self, scan: &LaserScan, max: usize) -> usize {
+        self.x.clear();
+        self.y.clear();
+        let (bx, by) = (&mut self.x, &mut self.y);
+        let valid = |r: f64| r.is_finite() && r >= scan.range_min && r < scan.range_max;
+        evenly_spread(&scan.ranges, valid, max, |i| {
+            let (a, r) = (scan.beam_angle(i), scan.ranges[i]);
+            let p = scan.mount.transform_point([r * a.cos(), r * a.sin()]);
+            bx.push(p[0]);
+            by.push(p[1]);
+        });
+        self.x.len()
+    }
+}
+
+/// The laser model of one scan: the selected beams and the map they are weighed on.
+struct ScanModel<'a> {
+    field: &'a LikelihoodField,
+    params: &'a MclParams,
+    beams: &'a Beams,
+    mount: Pose2,
+    range_max: f64,
+}
+
+impl<'a> ScanModel<'a> {
+    fn new(
+        field: &'a LikelihoodField,
+        params: &'a MclParams,
+        beams: &'a Beams,
+        scan: &LaserScan,
+    ) -> ScanModel<'a> {
+        ScanModel {
+            field,
+            params,
+            beams,
+            mount: scan.mount,
+            range_max: scan.range_max,
+        }
+    }
+
+    /// Fills `out` with the log-likelihood of the scan at each robot pose (x, y, θ).
+    fn log_likelihoods(&self, x: &[f64], y: &[f64], th: &[f64], out: &mut [f64]) {
+        let (field, mount, range_max) = (self.field, self.mount, self.range_max);
+        let (bx, by) = (&self.beams.x[..], &self.beams.y[..]);
+        match self.params.sensor_model {
+            SensorModel::LikelihoodField => field.scan_log_likelihoods(bx, by, x, y, th, out),
+            SensorModel::Beam => {
+                let bp = self.params.beam_params();
+                for (i, l) in out.iter_mut().enumerate() {
+                    let o = Pose2::new(x[i], y[i], th[i]).compose(&mount);
+                    *l = 0.0;
+                    for (&a, &z) in bx.iter().zip(by) {
+                        let (s, c) = (o.theta + a).sin_cos();
+                        let z_star = cast_ray(field, o.x, o.y, c, s, range_max);
+                        *l += beam_probability(z, z_star, range_max, &bp).ln();
+                    }
+                }
+            }
+        }
     }
 }
 

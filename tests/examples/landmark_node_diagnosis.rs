@@ -304,6 +304,9 @@ fn paper_params(scenario: &mut Scenario) {
     p.remove("model_radius");
 }
 
+/// (node, verified, true distance, dead-reckoning error, heading error of the pose, degrees)
+type NodeInstant = (usize, bool, f64, f64, f64);
+
 /// The best any landmark could do under 002's gate and reset (`oracle`): a node counts as
 /// recognised on the first scan (after the warm-up) at which the odometry is within ρ of the
 /// node (Algorithm 1 line 12) and the robot truly is within `DIAG_TRUE_R` of it (default ρ),
@@ -323,8 +326,7 @@ struct Oracle {
     steps: usize,
     truth: Arc<Mutex<Pose2>>,
     pending: Option<usize>,
-    /// (node, verified, true distance, dead-reckoning error, heading error of the pose)
-    events: Arc<Mutex<Vec<(usize, bool, f64, f64, f64)>>>,
+    events: Arc<Mutex<Vec<NodeInstant>>>,
 }
 
 impl Oracle {

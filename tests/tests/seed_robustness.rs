@@ -56,3 +56,8 @@ fn omni_lab() {
 fn slam_paper() {
     holds_on_nine_of_ten_seeds("slam_paper");
 }
+
+#[test]
+fn global_localization() {
+    holds_on_nine_of_ten_seeds("global_localization");
+}
