@@ -227,6 +227,17 @@ impl LikelihoodField {
         self.log_floor = rand.ln();
     }
 
+    /// The field's curve at distance `d` from the nearest wall surface: the log of the hit
+    /// Gaussian plus the z_rand density (what the table holds per cell, for any distance).
+    pub fn log_likelihood_at_distance(&self, d: f64) -> f64 {
+        let p = &self.params;
+        let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * p.sigma_hit);
+        let d = d.min(p.max_dist);
+        (p.z_hit * norm * (-d * d / (2.0 * p.sigma_hit * p.sigma_hit)).exp()
+            + p.z_rand / p.range_max)
+            .ln()
+    }
+
     /// Rebuilds the table in place (no allocation) when the laser's range_max changes.
     pub fn set_range_max(&mut self, range_max: f64) {
         if range_max != self.params.range_max && range_max.is_finite() && range_max > 0.0 {
@@ -369,6 +380,31 @@ impl LikelihoodField {
         }
     }
 
+    /// Each beam's [`LikelihoodField::log_likelihood`] seen from every pose, beam-major:
+    /// `out[b · n + i]` for beam b and pose i, n = `x.len()`; `out` holds at least
+    /// n × `bx.len()` values. Summing a pose's values over the beams in order gives
+    /// [`LikelihoodField::scan_log_likelihoods`] bit for bit.
+    pub fn beam_log_likelihoods(
+        &self,
+        bx: &[f64],
+        by: &[f64],
+        x: &[f64],
+        y: &[f64],
+        th: &[f64],
+        out: &mut [f64],
+    ) {
+        let n = x.len();
+        let (y, th) = (&y[..n], &th[..n]);
+        let by = &by[..bx.len()];
+        let out = &mut out[..n * bx.len()];
+        for i in 0..n {
+            let (s, c) = th[i].sin_cos();
+            for (b, (&u, &v)) in bx.iter().zip(by).enumerate() {
+                out[b * n + i] = self.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
+            }
+        }
+    }
+
     /// Log-likelihood of the cell containing (x, y), without interpolation.
     #[inline]
     pub fn log_nearest(&self, x: f64, y: f64) -> f64 {
@@ -446,6 +482,31 @@ pub(crate) mod tests {
         for shift in [0.03, 0.06, 0.1, -0.03, -0.06, -0.1] {
             assert!(score(shift) < at0, "shift {shift}");
         }
+    }
+
+    #[test]
+    fn per_beam_values_sum_to_the_scan_bit_for_bit() {
+        let mut g = grid(60, 40, &[(10, 5), (11, 5), (30, 20), (45, 33)]);
+        (g.origin, g.resolution) = ([0.0, 0.0], 0.05);
+        let f = LikelihoodField::new(&g, tight_params()).unwrap();
+        let (bx, by) = ([0.3, -0.2, 0.5, 0.05, 0.41], [0.1, 0.25, -0.3, 0.0, 0.2]);
+        let x = [0.4, 0.61, 0.9, 1.1, 0.2, 0.33, 0.75];
+        let y = [0.3, 0.2, 0.55, 0.4, 0.15, 0.6, 0.38];
+        let th = [0.0, 1.0, -2.0, 0.5, 3.0, -0.7, 2.2];
+        let mut sums = [0.0; 7];
+        f.scan_log_likelihoods(&bx, &by, &x, &y, &th, &mut sums);
+        let mut per = vec![0.0; 7 * 5];
+        f.beam_log_likelihoods(&bx, &by, &x, &y, &th, &mut per);
+        for i in 0..7 {
+            let mut l = 0.0;
+            for b in 0..5 {
+                l += per[b * 7 + i];
+            }
+            assert_eq!(l, sums[i], "pose {i}");
+        }
+        // The curve at distance 0 is the table at a wall's surface cell.
+        assert!((f.log_likelihood_at_distance(0.0) - f.log_nearest(0.525, 0.275)).abs() < 1e-6);
+        assert!(sums.iter().any(|l| *l > 5.0 * f.log_floor()), "{sums:?}");
     }
 
     #[test]

@@ -103,6 +103,21 @@ pub struct MclParams {
     /// are weighed by the likelihood alone, not divided by how densely the matcher gathers
     /// them: each local optimum stands for a hypothesis. Default 0: uniform particles.
     pub global_samples: usize,
+    /// Likelihood field only: beam skipping, as ROS amcl's `do_beamskip` [amcl]. A beam
+    /// whose endpoint lies within this distance (metres) of a wall for fewer than
+    /// `beam_skip_threshold` of the particles is left out of the update: where nearly every
+    /// particle finds it unexplained, it sees something the map does not hold (a table's legs
+    /// under a footprint the map fills, a door jamb's corner), and its z_rand floor against
+    /// the few particles that happen to put it on a wall swings the estimate (measured on
+    /// `corridor_tracking` seed 2: one beam through a door moved it 5 cm along the corridor,
+    /// NOTES.md). Default 0: every beam is used.
+    pub beam_skip_distance: f64,
+    /// Fraction of the particles below which a beam is skipped. Default 0.3 (amcl's).
+    pub beam_skip_threshold: f64,
+    /// When more than this fraction of a scan's beams would be skipped, none is: the
+    /// particles disagree with the scan as a whole (global localization, a kidnapping), and
+    /// skipping would hide it. Default 0.9 (amcl's).
+    pub beam_skip_error_threshold: f64,
 }
 
 /// Which laser model an MCL filter weighs particles with.
@@ -140,6 +155,9 @@ impl Default for MclParams {
             lambda_short: 0.1,
             resample_ess: 0.0,
             global_samples: 0,
+            beam_skip_distance: 0.0,
+            beam_skip_threshold: 0.3,
+            beam_skip_error_threshold: 0.9,
         }
     }
 }
@@ -246,6 +264,15 @@ impl MclParams {
                 self.resample_ess
             ));
         }
+        non_negative("beam_skip_distance", self.beam_skip_distance)?;
+        for (name, v) in [
+            ("beam_skip_threshold", self.beam_skip_threshold),
+            ("beam_skip_error_threshold", self.beam_skip_error_threshold),
+        ] {
+            if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+                return Err(format!("{name} must be a fraction in [0, 1], got {v}"));
+            }
+        }
         self.beam_params().validate()?;
         Ok(())
     }
@@ -287,6 +314,8 @@ pub struct Mcl {
     kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
     beams: Beams,
+    /// Per-beam, per-particle log-likelihoods for beam skipping (empty without it).
+    beam_scratch: Vec<f64>,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
@@ -431,6 +460,7 @@ impl Mcl {
                 params.kld_bin,
             ),
             beams: Beams::with_capacity(params.max_beams),
+            beam_scratch: Vec::new(),
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
@@ -589,7 +619,7 @@ impl Mcl {
             let y: Vec<f64> = poses.iter().map(|p| p.y).collect();
             let th: Vec<f64> = poses.iter().map(|p| p.theta).collect();
             let model = ScanModel::new(&field, &self.params, &beams, scan);
-            model.log_likelihoods(&x, &y, &th, &mut out);
+            model.log_likelihoods(&x, &y, &th, &mut out, &mut Vec::new());
         }
         out
     }
@@ -603,14 +633,14 @@ impl Mcl {
                 self.seed_from_scan = Some(cells);
             }
         }
-        let nb = self.beams.select(scan, &self.params);
-        if nb == 0 {
+        if self.beams.select(scan, &self.params) == 0 {
             return;
         }
         let model = ScanModel::new(&self.field, &self.params, &self.beams, scan);
-        self.core
-            .set
-            .reweight_log_columns(|x, y, th, out| model.log_likelihoods(x, y, th, out));
+        let (scratch, mut nb) = (&mut self.beam_scratch, 0);
+        self.core.set.reweight_log_columns(|x, y, th, out| {
+            nb = model.log_likelihoods(x, y, th, out, scratch);
+        });
         let n = self.core.set.len();
         let inv_nb = 1.0 / nb as f64;
         let mut per_beam = 0.0;
@@ -742,14 +772,49 @@ impl<'a> ScanModel<'a> {
         }
     }
 
-    /// Fills `out` with the log-likelihood of the scan at each robot pose (x, y, θ).
-    fn log_likelihoods(&self, x: &[f64], y: &[f64], th: &[f64], out: &mut [f64]) {
+    /// Fills `out` with the log-likelihood of the scan at each robot pose (x, y, θ); returns
+    /// how many beams it used. `scratch` holds the per-beam values of beam skipping.
+    fn log_likelihoods(
+        &self,
+        x: &[f64],
+        y: &[f64],
+        th: &[f64],
+        out: &mut [f64],
+        scratch: &mut Vec<f64>,
+    ) -> usize {
         let (field, mount, range_max) = (self.field, self.mount, self.range_max);
         let (bx, by) = (&self.beams.x[..], &self.beams.y[..]);
-        match self.params.sensor_model {
-            SensorModel::LikelihoodField => field.scan_log_likelihoods(bx, by, x, y, th, out),
+        let p = self.params;
+        match p.sensor_model {
+            SensorModel::LikelihoodField if p.beam_skip_distance > 0.0 => {
+                let n = x.len();
+                scratch.resize(n * bx.len(), 0.0);
+                field.beam_log_likelihoods(bx, by, x, y, th, scratch);
+                let hit = field.log_likelihood_at_distance(p.beam_skip_distance);
+                let rows = || scratch.chunks_exact(n);
+                let explained = |row: &[f64]| row.iter().filter(|l| **l >= hit).count();
+                let kept = |row: &[f64]| explained(row) as f64 >= p.beam_skip_threshold * n as f64;
+                let n_kept = rows().filter(|r| kept(r)).count();
+                let skip_none =
+                    (bx.len() - n_kept) as f64 > p.beam_skip_error_threshold * bx.len() as f64;
+                out.fill(0.0);
+                for row in rows().filter(|r| skip_none || kept(r)) {
+                    for (o, l) in out.iter_mut().zip(row) {
+                        *o += l;
+                    }
+                }
+                if skip_none {
+                    bx.len()
+                } else {
+                    n_kept
+                }
+            }
+            SensorModel::LikelihoodField => {
+                field.scan_log_likelihoods(bx, by, x, y, th, out);
+                bx.len()
+            }
             SensorModel::Beam => {
-                let bp = self.params.beam_params();
+                let bp = p.beam_params();
                 for (i, l) in out.iter_mut().enumerate() {
                     let o = Pose2::new(x[i], y[i], th[i]).compose(&mount);
                     *l = 0.0;
@@ -759,6 +824,7 @@ impl<'a> ScanModel<'a> {
                         *l += beam_probability(z, z_star, range_max, &bp).ln();
                     }
                 }
+                bx.len()
             }
         }
     }

@@ -69,6 +69,36 @@ impl Localizer for Spy {
                 near_n += 1;
             }
         }
+        // Where the scan prefers another pose than the truth by more than DIAG_BEAMS nats:
+        // each beam's log-likelihood at the truth and at the best particle.
+        if let Ok(gap) = std::env::var("DIAG_BEAMS") {
+            let gap: f64 = gap.parse().expect("DIAG_BEAMS: nats");
+            if best - at_truth > gap {
+                let best_pose =
+                    poses[ll
+                        .iter()
+                        .enumerate()
+                        .fold(0, |b, (i, v)| if *v > ll[b] { i } else { b })];
+                for i in 0..l.ranges.len() {
+                    let mut one = l.clone();
+                    for (k, r) in one.ranges.iter_mut().enumerate() {
+                        if k != i {
+                            *r = f64::NAN;
+                        }
+                    }
+                    let v = mcl.scan_log_likelihoods(&one, &[tr, best_pose]);
+                    if (v[0] - v[1]).abs() > 0.5 {
+                        println!(
+                            "    beam {i:3} angle {:6.1} range {:.3}: truth {:.2} best {:.2}",
+                            l.beam_angle(i).to_degrees(),
+                            l.ranges[i],
+                            v[0],
+                            v[1]
+                        );
+                    }
+                }
+            }
+        }
         println!(
             "t {:6.1} n {:6} near {:.3} ({:5} particles) ess {:7.0} err {:6.2} m truth ({:5.1},{:5.1},{:4.0}) est ({:5.1},{:5.1},{:4.0}) inj {:.3} ll truth {:.1} best {:.1} best near {:.1}",
             l.stamp,

@@ -133,6 +133,12 @@ fn route(start: Pose2, waypoints: &[[f64; 2]]) -> Vec<Pose2> {
 /// and a little random noise, a scan at every pose. Returns the position error after each
 /// step.
 fn drive(mcl: &mut Mcl, grid: &OccupancyGrid, truth: &[Pose2], seed: u64) -> Vec<f64> {
+    drive_in(mcl, grid, truth, seed)
+}
+
+/// [`drive`] with the scans taken in `world`, which may hold what the filter's map does not.
+fn drive_in(mcl: &mut Mcl, world: &OccupancyGrid, truth: &[Pose2], seed: u64) -> Vec<f64> {
+    let grid = world;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut odom = Pose2::new(100.0, -50.0, 1.0);
     let mut errors = Vec::new();
@@ -344,6 +350,110 @@ fn seeding_a_global_belief_from_the_first_scan_finds_the_pose() {
         uniform_ok <= 2,
         "uniform particles found it on {uniform_ok} of 8 seeds"
     );
+}
+
+/// The beam selection and the skipping rule on hand-made cases: a beam that no pose
+/// explains is left out, unless nearly every beam would be.
+#[test]
+fn beam_skipping_leaves_out_what_most_particles_cannot_explain() {
+    let grid = asymmetric_room();
+    let at = Pose2::new(2.0, 1.0, 0.3);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut scan = simulate_scan(&grid, &at, 0.1, &mut rng);
+    let skipping = MclParams {
+        sigma_hit: 0.05,
+        max_beams: 181,
+        beam_skip_distance: 0.1,
+        ..MclParams::default()
+    };
+    let plain = MclParams {
+        beam_skip_distance: 0.0,
+        ..skipping.clone()
+    };
+    let init = InitialBelief::Tracking {
+        pose: at,
+        sigma: [0.01, 0.01, 0.01],
+    };
+    let skip = Mcl::new("mcl", skipping, &grid, init.clone(), 1).unwrap();
+    let keep = Mcl::new("mcl", plain, &grid, init, 1).unwrap();
+    let poses = [at; 10];
+    // Every beam explained at the true pose: nothing is skipped.
+    assert_eq!(
+        skip.scan_log_likelihoods(&scan, &poses),
+        keep.scan_log_likelihoods(&scan, &poses)
+    );
+    // Beam 90 (straight ahead) now ends in the open, 0.8 m out, at every pose: it is left out.
+    scan.ranges[90] = 0.8;
+    let (s, k) = (
+        skip.scan_log_likelihoods(&scan, &poses)[0],
+        keep.scan_log_likelihoods(&scan, &poses)[0],
+    );
+    let floor = skip.field.log_floor();
+    assert!(
+        (s - (k - floor)).abs() < 1e-6 * k.abs(),
+        "{s} vs {k} - {floor}"
+    );
+    // Seen from poses far off, nearly every beam is unexplained: none is skipped.
+    let far = [Pose2::new(9.0, 3.0, 2.5); 10];
+    assert_eq!(
+        skip.scan_log_likelihoods(&scan, &far),
+        keep.scan_log_likelihoods(&scan, &far)
+    );
+}
+
+/// Boxes the map does not hold stand along the tour: with beam skipping the filter's worst
+/// error over the tour is smaller on most seeds and in sum (measured: 7 of 8 seeds, sum
+/// 0.38 m against 0.52 m).
+#[test]
+fn beam_skipping_keeps_unmapped_clutter_from_pulling_the_estimate() {
+    let map = asymmetric_room();
+    let mut world = map.clone();
+    for (bx, by) in [
+        (6.4, 1.5),
+        (7.6, 2.4),
+        (3.0, 3.0),
+        (2.6, 5.2),
+        (4.6, 5.9),
+        (1.3, 4.2),
+    ] {
+        for j in 0..world.height {
+            for i in 0..world.width {
+                let x = world.origin[0] + (i as f64 + 0.5) * RES;
+                let y = world.origin[1] + (j as f64 + 0.5) * RES;
+                if (x - bx).abs() < 0.15 && (y - by).abs() < 0.15 {
+                    world.cells[j * world.width + i] = Cell::Occupied;
+                }
+            }
+        }
+    }
+    let truth = route(Pose2::new(1.0, 1.0, 0.0), &TOUR);
+    let (mut better, mut sum_with, mut sum_without) = (0, 0.0, 0.0);
+    for seed in 0..8 {
+        let run = |skip: f64| {
+            let params = MclParams {
+                sigma_hit: 0.05,
+                beam_skip_distance: skip,
+                ..MclParams::default()
+            };
+            let init = InitialBelief::Tracking {
+                pose: Pose2::new(1.0, 1.0, 0.0),
+                sigma: [0.05, 0.05, 0.02],
+            };
+            let mut mcl = Mcl::new("mcl", params, &map, init, seed).unwrap();
+            let e = drive_in(&mut mcl, &world, &truth, 40 + seed);
+            let mean = e[20..].iter().sum::<f64>() / (e.len() - 20) as f64;
+            (mean, e[20..].iter().copied().fold(0.0, f64::max))
+        };
+        let (with, without) = (run(0.1), run(0.0));
+        eprintln!(
+            "seed {seed}: mean/worst {with:.3?} m with beam skipping, {without:.3?} m without"
+        );
+        better += (with.1 < without.1) as usize;
+        sum_with += with.1;
+        sum_without += without.1;
+    }
+    assert!(better >= 6, "better on {better} of 8 seeds");
+    assert!(sum_with < 0.85 * sum_without, "{sum_with} vs {sum_without}");
 }
 
 #[test]
