@@ -183,13 +183,24 @@ enum Source {
     },
 }
 
-/// Log-likelihood of a pose and its gradient and Gauss–Newton diagonal.
+/// The gradient of a pose's observation log-likelihood and its Gauss–Newton diagonal; the
+/// log-likelihood itself is left in per-point [`Terms`] until it is asked for.
 #[derive(Debug, Clone, Copy, Default)]
 struct Eval {
-    loglik: f64,
     grad: [f64; 3],
     hdiag: [f64; 3],
 }
+
+/// Marks a point without a corresponding segment in [`Terms`] (a Gaussian factor is >= 0).
+const NO_CORRESPONDENCE: f64 = -1.0;
+
+/// The Gaussian factor g = exp(−d²/2σ²) of each observed point at the last evaluated pose, or
+/// [`NO_CORRESPONDENCE`]. The refinement only needs the gradient; the logarithms of the
+/// log-likelihood, one per point, are taken from here only for the poses that the acceptance
+/// test compares (q⁰ and qʳ), not for the intermediate refinement iterates. Summed in point
+/// order with the operations the single pass used, the result is bit for bit the same.
+#[derive(Debug, Clone, Default)]
+struct Terms(Vec<f64>);
 
 /// A CGR particle filter on a vector map.
 #[derive(Debug, Clone)]
@@ -203,6 +214,8 @@ pub struct Cgr {
     /// Observed points in the base frame and (depth) their unit normals.
     obs: Vec<[f64; 2]>,
     obs_normals: Vec<[f64; 2]>,
+    /// Scratch of [`Cgr::evaluate`], one factor per observed point.
+    terms: Terms,
     /// Refined samples accepted / offered, over the whole run.
     accepted: u64,
     offered: u64,
@@ -272,6 +285,7 @@ impl Cgr {
             source,
             obs: Vec::with_capacity(params.max_points),
             obs_normals: Vec::with_capacity(params.max_points),
+            terms: Terms(Vec::with_capacity(params.max_points)),
             accepted: 0,
             offered: 0,
             fit: FitTracker::default(),
@@ -305,31 +319,32 @@ impl Cgr {
 
     /// The observation log-likelihood of `pose` for the current observation.
     pub fn log_likelihood(&self, pose: &Pose2) -> f64 {
-        self.evaluate(pose.x, pose.y, pose.theta).loglik
+        let mut terms = Terms::default();
+        self.evaluate(pose.x, pose.y, pose.theta, &mut terms);
+        self.log_likelihood_of(&terms)
     }
 
     /// `r` refinement iterations of `pose` on the current observation (step 2 alone).
     pub fn refine(&self, pose: &Pose2, r: usize) -> Pose2 {
         let (mut x, mut y, mut th) = (pose.x, pose.y, pose.theta);
-        let mut e = self.evaluate(x, y, th);
+        let mut terms = Terms::default();
+        let mut e = self.evaluate(x, y, th, &mut terms);
         for _ in 0..r {
             let d = self.refinement_step(&e);
             x += d[0];
             y += d[1];
             th = normalize_angle(th + d[2]);
-            e = self.evaluate(x, y, th);
+            e = self.evaluate(x, y, th, &mut terms);
         }
         Pose2::new(x, y, th)
     }
 
-    /// Log-likelihood, gradient and Gauss–Newton diagonal of the current observation at
-    /// (x, y, θ). Allocation-free.
-    fn evaluate(&self, px: f64, py: f64, th: f64) -> Eval {
+    /// Gradient and Gauss–Newton diagonal of the current observation's log-likelihood at
+    /// (x, y, θ); each point's Gaussian factor goes to `terms` for
+    /// [`Cgr::log_likelihood_of`]. Allocation-free once `terms` has grown to the observation.
+    fn evaluate(&self, px: f64, py: f64, th: f64, terms: &mut Terms) -> Eval {
         let sigma2 = self.params.sigma * self.params.sigma;
-        let k = self.params.outlier_sigmas;
-        let eps_out = (-0.5 * k * k).exp();
-        let norm = (1.0 + eps_out).ln();
-        let outlier = eps_out.ln() - norm;
+        let eps_out = self.outlier_floor();
         let (s, c) = th.sin_cos();
         let min_cos = match &self.source {
             Source::Depth { min_cos, .. } => *min_cos,
@@ -337,6 +352,8 @@ impl Cgr {
         };
         let with_normals = self.obs_normals.len() == self.obs.len();
         let lines = self.map.lines();
+        let terms = &mut terms.0;
+        terms.clear();
         let mut e = Eval::default();
         for (i, q) in self.obs.iter().enumerate() {
             let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
@@ -346,19 +363,14 @@ impl Cgr {
             } else {
                 None
             };
-            let Some((id, d)) = self.map.nearest(p, constraint) else {
-                e.loglik += outlier;
+            let Some(corr) = self.map.correspondence(p, constraint) else {
+                terms.push(NO_CORRESPONDENCE);
                 continue;
             };
-            let l = &lines[id];
-            // Residual vector from the closest point of the segment to p.
-            let t = ((p[0] - l.a[0]) * l.dir[0] + (p[1] - l.a[1]) * l.dir[1]).clamp(0.0, l.length);
-            let r = [
-                p[0] - (l.a[0] + t * l.dir[0]),
-                p[1] - (l.a[1] + t * l.dir[1]),
-            ];
+            // Residual vector from the closest point of the segment to p, and its length.
+            let (r, d) = (corr.residual, corr.distance);
             let g = (-0.5 * d * d / sigma2).exp();
-            e.loglik += (g + eps_out).ln() - norm;
+            terms.push(g);
             // d/dpose of ½d²: r·∂p; the mixture weights it by g / (g + ε_out).
             let omega = g / (g + eps_out) / sigma2;
             let dp_dth = [-s * q[0] - c * q[1], c * q[0] - s * q[1]];
@@ -368,7 +380,7 @@ impl Cgr {
             let u = if d > 1e-9 {
                 [r[0] / d, r[1] / d]
             } else {
-                l.normal
+                lines[corr.line].normal
             };
             let j_th = u[0] * dp_dth[0] + u[1] * dp_dth[1];
             e.hdiag[0] += omega * u[0] * u[0];
@@ -376,6 +388,29 @@ impl Cgr {
             e.hdiag[2] += omega * j_th * j_th;
         }
         e
+    }
+
+    /// ε_out = exp(−k²/2), the outlier floor of the per-point mixture.
+    fn outlier_floor(&self) -> f64 {
+        let k = self.params.outlier_sigmas;
+        (-0.5 * k * k).exp()
+    }
+
+    /// The observation log-likelihood from the factors of an evaluation: per point
+    /// log(g + ε_out) − log(1 + ε_out), or log ε_out − log(1 + ε_out) without a segment.
+    fn log_likelihood_of(&self, terms: &Terms) -> f64 {
+        let eps_out = self.outlier_floor();
+        let norm = (1.0 + eps_out).ln();
+        let outlier = eps_out.ln() - norm;
+        let mut loglik = 0.0;
+        for &g in &terms.0 {
+            if g == NO_CORRESPONDENCE {
+                loglik += outlier;
+            } else {
+                loglik += (g + eps_out).ln() - norm;
+            }
+        }
+        loglik
     }
 
     /// One refinement step from an evaluation: the gradient preconditioned by the damped
@@ -472,6 +507,7 @@ impl Cgr {
         };
         let have_obs = self.obs.len() >= self.params.min_points;
         let r = self.params.refinements;
+        let mut terms = std::mem::take(&mut self.terms);
         // CGR keeps its own step 1: its motion draws interleave with the acceptance test's.
         for i in 0..self.core.set.len() {
             let prev = self.core.set.pose(i);
@@ -488,9 +524,10 @@ impl Cgr {
                 continue;
             }
             // Step 2: r refinement iterations.
-            let e0 = self.evaluate(q0.x, q0.y, q0.theta);
+            let mut e = self.evaluate(q0.x, q0.y, q0.theta, &mut terms);
+            let ll0 = self.log_likelihood_of(&terms);
             let (mut cx, mut cy, mut ct) = (q0.x, q0.y, q0.theta);
-            let mut e = e0;
+            let mut refined = false;
             for _ in 0..r {
                 let d = self.refinement_step(&e);
                 if d[0].abs() < 1e-6 && d[1].abs() < 1e-6 && d[2].abs() < 1e-7 {
@@ -499,28 +536,34 @@ impl Cgr {
                 cx += d[0];
                 cy += d[1];
                 ct = normalize_angle(ct + d[2]);
-                e = self.evaluate(cx, cy, ct);
+                e = self.evaluate(cx, cy, ct, &mut terms);
+                refined = true;
             }
+            let llr = if refined {
+                self.log_likelihood_of(&terms)
+            } else {
+                ll0
+            };
             let qr = Pose2::new(cx, cy, ct);
             // Step 3: acceptance test between qʳ and q⁰.
             let mu = if moved { prev.compose(&p) } else { prev };
-            let log_alpha = (e.loglik + motion_log(&mu, &qr)) - (e0.loglik + motion_log(&mu, &q0));
+            let log_alpha = (llr + motion_log(&mu, &qr)) - (ll0 + motion_log(&mu, &q0));
             self.offered += 1;
             let u: f64 = self.core.rng.random();
             let (chosen, ll) = if log_alpha >= 0.0 || u.ln() < log_alpha {
                 self.accepted += 1;
-                (qr, e.loglik)
+                (qr, llr)
             } else {
-                (q0, e0.loglik)
+                (q0, ll0)
             };
             self.core.set.set_pose(i, chosen);
             self.core.set.log_likelihoods_mut()[i] = ll;
         }
+        self.terms = terms;
         if !have_obs {
             // Nothing (or too little) to match: for the mismatch measure, as if every point
             // were an outlier, so a sensor that sees nothing does not look well matched.
-            let k = self.params.outlier_sigmas;
-            let eps_out = (-0.5 * k * k).exp();
+            let eps_out = self.outlier_floor();
             self.fit
                 .record_blind(self.core.carry.stamp, eps_out.ln() - (1.0 + eps_out).ln());
             // The particles moved and `pending` was consumed: the estimate must follow them,
