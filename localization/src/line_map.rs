@@ -11,6 +11,13 @@ use atrium_worlds::VectorMap;
 /// Candidate segments kept per grid cell.
 pub const CANDIDATES: usize = 4;
 const NONE: u32 = u32::MAX;
+/// Sub-cells per cell side for the dominance masks.
+const SUB: usize = 4;
+/// Distance by which a dominated candidate is farther everywhere in its sub-cell, m: far
+/// above the float error of a point's cell and of its computed distances (about 1e-13 m).
+const DOMINANCE_MARGIN: f64 = 1e-9;
+/// Marks a `LineMap::sub_cells` entry that is its cell's only record, not an offset.
+const ONE_RECORD: u32 = 1 << 31;
 
 /// One map segment with what the correspondence search needs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,6 +65,14 @@ pub struct LineMap {
     height: usize,
     /// `CANDIDATES` segment indices per cell, nearest first, `NONE`-padded.
     cells: Vec<[u32; CANDIDATES]>,
+    /// Per cell with two or more candidates, the offset of its `SUB`² records in
+    /// `dominated`; otherwise `ONE_RECORD` | the candidates present (bit k = candidate k).
+    sub_cells: Vec<u32>,
+    /// Per sub-cell, row-major: nibble k of the low 16 bits holds the candidates (bit j =
+    /// candidate j) nearer than candidate k everywhere in the sub-cell, so that k can never
+    /// be the nearest while any of them is eligible; bits 16–19 hold the candidates left
+    /// when all are eligible (no normal constraint).
+    dominated: Vec<u32>,
     /// Candidates are complete for points within this distance of a segment, m.
     reach: f64,
 }
@@ -167,6 +182,7 @@ impl LineMap {
                 }
             }
         }
+        let (sub_cells, dominated) = dominance(&lines, &cells, &dist, origin, resolution, width);
         Ok(Self {
             lines,
             origin,
@@ -174,6 +190,8 @@ impl LineMap {
             width,
             height,
             cells,
+            sub_cells,
+            dominated,
             reach,
         })
     }
@@ -186,20 +204,35 @@ impl LineMap {
         self.reach
     }
 
-    /// The candidate segments of the cell holding `p` (empty off the grid or far from walls).
+    /// The cell holding `p` and the sub-cell within it (row-major), if on the grid.
     #[inline]
-    pub fn candidates(&self, p: [f64; 2]) -> &[u32] {
-        let fi = (p[0] - self.origin[0]) / self.resolution;
-        let fj = (p[1] - self.origin[1]) / self.resolution;
+    fn locate(&self, p: [f64; 2]) -> Option<(usize, usize)> {
+        // Scaled by SUB, a power of two, exactly: the integer part over SUB is the cell the
+        // unscaled quotient's integer part picks, the remainder its sub-cell.
+        let fi = (p[0] - self.origin[0]) / self.resolution * SUB as f64;
+        let fj = (p[1] - self.origin[1]) / self.resolution * SUB as f64;
         // Bounds in f64 (exact for these small integers) before the casts: a saturating
         // f64 → usize cast costs a dozen instructions, and this runs for every observed
         // point of every particle's evaluation. NaN fails the test.
-        if !(fi >= 0.0 && fj >= 0.0 && fi < self.width as f64 && fj < self.height as f64) {
-            return &[];
+        if !(fi >= 0.0
+            && fj >= 0.0
+            && fi < (self.width * SUB) as f64
+            && fj < (self.height * SUB) as f64)
+        {
+            return None;
         }
-        // In [0, 2³¹): the grid has at most LINE_MAP_MAX_CELLS cells.
+        // In [0, 2³²): the grid has at most LINE_MAP_MAX_CELLS cells.
         let (i, j) = (fi as u32 as usize, fj as u32 as usize);
-        let c = &self.cells[j * self.width + i];
+        Some(((j / SUB) * self.width + i / SUB, (j % SUB) * SUB + i % SUB))
+    }
+
+    /// The candidate segments of the cell holding `p` (empty off the grid or far from walls).
+    #[inline]
+    pub fn candidates(&self, p: [f64; 2]) -> &[u32] {
+        let Some((cell, _)) = self.locate(p) else {
+            return &[];
+        };
+        let c = &self.cells[cell];
         let n = c.iter().position(|&x| x == NONE).unwrap_or(CANDIDATES);
         &c[..n]
     }
@@ -214,33 +247,73 @@ impl LineMap {
 
     /// [`LineMap::nearest`] with the residual vector from the segment's closest point to `p`
     /// (what CGR's gradient needs), computed by the very operations `Line::segment_distance`
-    /// performs, so `distance` is bit for bit `residual[0].hypot(residual[1])`.
+    /// performs, so `distance` is bit for bit `residual[0].hypot(residual[1])`, and the
+    /// segment is the first of the cell's candidates at the least such distance, as a
+    /// search through all of them finds.
     ///
-    /// Candidates are ranked by squared distance, and `hypot` (a libm call, the dearest part
-    /// of the search) is taken only of those within a relative 10⁻¹² of the smallest. That
-    /// ranks exactly as comparing `hypot`s would: the squares carry a relative error below
-    /// 4·10⁻¹⁶ and `hypot` one below 2.3·10⁻¹⁶, so a candidate whose square is larger by
-    /// 10⁻¹² has the larger `hypot` too, strictly. Squares near underflow or overflow, where
-    /// that bound fails, take every candidate's `hypot`, as the plain search does.
+    /// Two shortcuts keep that result. Candidates that a nearer eligible one dominates in
+    /// `p`'s sub-cell are skipped. Of those left (usually one), candidates are ranked by
+    /// squared distance, and `hypot` (a libm call) is taken only of those within a relative
+    /// 10⁻¹² of the smallest. That ranks exactly as comparing `hypot`s would: the squares
+    /// carry a relative error below 4·10⁻¹⁶ and `hypot` one below 2.3·10⁻¹⁶, so a candidate
+    /// whose square is larger by 10⁻¹² has the larger `hypot` too, strictly. Squares near
+    /// underflow or overflow, where that bound fails, take every candidate's `hypot`.
     #[inline]
     pub fn correspondence(
         &self,
         p: [f64; 2],
         normal: Option<([f64; 2], f64)>,
     ) -> Option<Correspondence> {
-        let ids = self.candidates(p);
-        // NaN: failed the normal test, never compares.
+        let (cell, sub) = self.locate(p)?;
+        let ids = &self.cells[cell];
+        let entry = self.sub_cells[cell];
+        let record = if entry & ONE_RECORD != 0 {
+            (entry & 0xf) << 16
+        } else {
+            self.dominated[entry as usize + sub]
+        };
+        let left = match normal {
+            None => record >> 16,
+            Some((n, min_cos)) => {
+                let mut eligible = 0u32;
+                for (k, &id) in ids.iter().enumerate() {
+                    if id == NONE {
+                        break;
+                    }
+                    let l = &self.lines[id as usize];
+                    if (n[0] * l.normal[0] + n[1] * l.normal[1]).abs() >= min_cos {
+                        eligible |= 1 << k;
+                    }
+                }
+                let mut blocked = 0u32;
+                for k in 0..CANDIDATES {
+                    blocked |= u32::from((record >> (4 * k)) & 0xf & eligible != 0) << k;
+                }
+                eligible & !blocked
+            }
+        };
+        if left == 0 {
+            return None;
+        }
+        if left.is_power_of_two() {
+            let id = ids[left.trailing_zeros() as usize];
+            let r = self.lines[id as usize].residual(p);
+            let d = r[0].hypot(r[1]);
+            return (d <= self.reach).then_some(Correspondence {
+                line: id as usize,
+                distance: d,
+                residual: r,
+            });
+        }
+        // NaN: not left, never compares.
         let mut squares = [f64::NAN; CANDIDATES];
         let mut residuals = [[0.0; 2]; CANDIDATES];
         let mut least = f64::INFINITY;
         for (k, &id) in ids.iter().enumerate() {
-            let l = &self.lines[id as usize];
-            if let Some((n, min_cos)) = normal {
-                if (n[0] * l.normal[0] + n[1] * l.normal[1]).abs() < min_cos {
-                    continue;
-                }
+            if left & (1 << k) == 0 {
+                continue;
             }
-            let r = l.residual(p);
+            let r = self.lines[id as usize].residual(p);
             squares[k] = r[0] * r[0] + r[1] * r[1];
             residuals[k] = r;
             least = least.min(squares[k]);
@@ -267,6 +340,95 @@ impl LineMap {
         }
         best
     }
+}
+
+/// The dominance records of every cell (see `LineMap::dominated`): candidate k is dominated
+/// by j in a sub-cell when k's distance at the sub-cell's centre, less the sub-cell's half
+/// diagonal, exceeds j's plus the half diagonal (a distance to a segment changes by at most
+/// the distance moved). Pairs that differ by the whole cell's diagonal at its centre are
+/// decided for all its sub-cells at once. Only the margins need the distances, so they are
+/// plain square roots here, not the `hypot`s of the search.
+fn dominance(
+    lines: &[Line],
+    cells: &[[u32; CANDIDATES]],
+    centre_distances: &[[f64; CANDIDATES]],
+    origin: [f64; 2],
+    resolution: f64,
+    width: usize,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut sub_cells = Vec::with_capacity(cells.len());
+    let mut dominated = Vec::new();
+    let half_diag = 0.5 * resolution * std::f64::consts::SQRT_2;
+    let sub_res = resolution / SUB as f64;
+    let sub_half_diag = 0.5 * sub_res * std::f64::consts::SQRT_2;
+    let distance = |l: &Line, c: [f64; 2]| {
+        let r = l.residual(c);
+        (r[0] * r[0] + r[1] * r[1]).sqrt()
+    };
+    for (cell, ids) in cells.iter().enumerate() {
+        let n = ids.iter().take_while(|&&id| id != NONE).count();
+        let present = (1u32 << n) - 1;
+        if n < 2 {
+            sub_cells.push(ONE_RECORD | present);
+            continue;
+        }
+        let offset = dominated.len();
+        sub_cells.push(offset as u32);
+        dominated.resize(offset + SUB * SUB, 0u32);
+        let records = &mut dominated[offset..];
+        let corner = [
+            origin[0] + (cell % width) as f64 * resolution,
+            origin[1] + (cell / width) as f64 * resolution,
+        ];
+        let dc = &centre_distances[cell];
+        // Sub-cell centre distances, computed once a pair needs them.
+        let mut sub_d: [Option<[f64; SUB * SUB]>; CANDIDATES] = [None; CANDIDATES];
+        for k in 0..n {
+            for j in (0..n).filter(|&j| j != k) {
+                let bit = 1u32 << (4 * k + j);
+                if dc[k] - half_diag > dc[j] + half_diag + DOMINANCE_MARGIN {
+                    for r in records.iter_mut() {
+                        *r |= bit;
+                    }
+                    continue;
+                }
+                if dc[j] - half_diag > dc[k] + half_diag + DOMINANCE_MARGIN {
+                    continue;
+                }
+                for m in [k, j] {
+                    if sub_d[m].is_none() {
+                        let l = &lines[ids[m] as usize];
+                        sub_d[m] = Some(std::array::from_fn(|s| {
+                            let (si, sj) = ((s % SUB) as f64, (s / SUB) as f64);
+                            distance(
+                                l,
+                                [
+                                    corner[0] + (si + 0.5) * sub_res,
+                                    corner[1] + (sj + 0.5) * sub_res,
+                                ],
+                            )
+                        }));
+                    }
+                }
+                let (dk, dj) = (sub_d[k].unwrap(), sub_d[j].unwrap());
+                for (s, r) in records.iter_mut().enumerate() {
+                    if dk[s] - sub_half_diag > dj[s] + sub_half_diag + DOMINANCE_MARGIN {
+                        *r |= bit;
+                    }
+                }
+            }
+        }
+        for r in records.iter_mut() {
+            let mut left = present;
+            for k in 0..n {
+                if (*r >> (4 * k)) & 0xf != 0 {
+                    left &= !(1 << k);
+                }
+            }
+            *r |= left << 16;
+        }
+    }
+    (sub_cells, dominated)
 }
 
 /// A point's nearest map segment.
@@ -363,10 +525,35 @@ mod tests {
     #[test]
     fn correspondence_is_the_hypot_search_bit_for_bit() {
         // Equidistant points (diagonals of the square's corners, the partition's mid-line)
-        // and random ones, with and without a normal constraint.
-        let map = square();
-        let lm = LineMap::new(&map, 0.1, 0.6).unwrap();
-        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        // and random ones, with and without a normal constraint; in the square, and with a
+        // 0.1 m and a 0.05 m thick wall (both faces and end caps, one at an angle) inside
+        // it, whose near and far faces share cells and split them into dominated sub-cells.
+        let s = |a: [f64; 2], b: [f64; 2]| atrium_worlds::Segment { a, b };
+        let rect = |map: &mut VectorMap, c: [[f64; 2]; 4]| {
+            for k in 0..4 {
+                map.segments.push(s(c[k], c[(k + 1) % 4]));
+            }
+        };
+        let mut thick = square();
+        rect(&mut thick, [[0.5, 2.0], [3.5, 2.0], [3.5, 2.1], [0.5, 2.1]]);
+        let (u, v) = ([0.8, 0.6], [-0.6 * 0.05, 0.8 * 0.05]);
+        let a = [1.0, 2.6];
+        let b = [a[0] + 2.0 * u[0], a[1] + 2.0 * u[1]];
+        rect(
+            &mut thick,
+            [a, b, [b[0] + v[0], b[1] + v[1]], [a[0] + v[0], a[1] + v[1]]],
+        );
+        for (seed, lm) in [
+            (0, LineMap::new(&square(), 0.1, 0.6).unwrap()),
+            (1, LineMap::new(&thick, 0.1, 0.6).unwrap()),
+            (2, LineMap::new(&thick, 0.07, 0.5).unwrap()),
+        ] {
+            check_against_hypot_search(&lm, seed);
+        }
+    }
+
+    fn check_against_hypot_search(lm: &LineMap, seed: u64) {
+        let mut rng = 0x2545_f491_4f6c_dd1du64 + seed;
         let mut uniform = || {
             rng ^= rng << 13;
             rng ^= rng >> 7;
@@ -386,7 +573,7 @@ mod tests {
         for p in &points {
             for n in normals {
                 let c = lm.correspondence(*p, n);
-                let reference = nearest_by_hypot(&lm, *p, n);
+                let reference = nearest_by_hypot(lm, *p, n);
                 assert_eq!(
                     c.map(|c| (c.line, c.distance.to_bits())),
                     reference.map(|(i, d)| (i, d.to_bits())),
@@ -400,6 +587,13 @@ mod tests {
             }
         }
         assert!(found > 20_000, "{found}");
+        // The thick walls put two or more candidates in many cells, and the masks leave one
+        // in most of their sub-cells.
+        if seed > 0 {
+            let records = lm.dominated.len();
+            let pruned = lm.dominated.iter().filter(|&&d| d & 0xffff != 0).count();
+            assert!(records > 1000 && pruned > records / 2, "{records} {pruned}");
+        }
     }
 
     #[test]
