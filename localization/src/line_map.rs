@@ -305,8 +305,7 @@ impl LineMap {
                 residual: r,
             });
         }
-        // NaN: not left, never compares.
-        let mut squares = [f64::NAN; CANDIDATES];
+        let mut squares = [f64::INFINITY; CANDIDATES];
         let mut residuals = [[0.0; 2]; CANDIDATES];
         let mut least = f64::INFINITY;
         for (k, &id) in ids.iter().enumerate() {
@@ -325,7 +324,7 @@ impl LineMap {
         };
         let mut best: Option<Correspondence> = None;
         for (k, &id) in ids.iter().enumerate() {
-            if !(squares[k] <= tie) {
+            if left & (1 << k) == 0 || squares[k] > tie {
                 continue;
             }
             let r = residuals[k];
