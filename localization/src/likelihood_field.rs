@@ -200,6 +200,16 @@ impl LikelihoodField {
         params
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
+        // The lookup converts cell coordinates through i32.
+        for (field, cells) in [("width", grid.width), ("height", grid.height)] {
+            if cells > i32::MAX as usize {
+                let reason = format!(
+                    "{cells} cells; a likelihood field holds at most {}",
+                    i32::MAX
+                );
+                return Err(LocalizationError::grid(field, reason));
+            }
+        }
         let dist = distance_transform(grid, params.max_dist)?;
         let mut lf = Self {
             origin: grid.origin,
@@ -299,10 +309,12 @@ impl LikelihoodField {
         let (umax, vmax) = ((self.width - 1) as f64, (self.height - 1) as f64);
         let u = ((x - self.origin[0]) * self.inv_resolution - 0.5).clamp(0.0, umax - 1e-9);
         let v = ((y - self.origin[1]) * self.inv_resolution - 0.5).clamp(0.0, vmax - 1e-9);
-        let (i, j) = (u as usize, v as usize);
-        let (fu, fv) = (u - i as f64, v - j as f64);
+        // Signed conversions: the test above keeps u and v in [0, width), and the
+        // processor converts to and from i32 in one instruction each, not usize.
+        let (i, j) = (u as i32, v as i32);
+        let (fu, fv) = (u - f64::from(i), v - f64::from(j));
         let w = self.width;
-        let k = j * w + i;
+        let k = j as usize * w + i as usize;
         let corners = &self.dist[k..k + w + 2];
         let (a, b, c, d) = (corners[0], corners[1], corners[w], corners[w + 1]);
         let bottom = a + (b - a) * fu;
@@ -326,10 +338,12 @@ impl LikelihoodField {
         if !(u >= 0.0 && v >= 0.0 && u < (self.width - 1) as f64 && v < (self.height - 1) as f64) {
             return self.log_nearest(x, y);
         }
-        let (i, j) = (u as usize, v as usize);
-        let (fu, fv) = (u - i as f64, v - j as f64);
+        // Signed conversions: the test above keeps u and v in [0, width), and the
+        // processor converts to and from i32 in one instruction each, not usize.
+        let (i, j) = (u as i32, v as i32);
+        let (fu, fv) = (u - f64::from(i), v - f64::from(j));
         let w = self.width;
-        let k = j * w + i;
+        let k = j as usize * w + i as usize;
         // One bounds check for the four corners (the test above keeps them in the grid).
         let corners = &self.log_p[k..k + w + 2];
         let (a, b) = (corners[0] as f64, corners[1] as f64);
@@ -380,28 +394,23 @@ impl LikelihoodField {
         }
     }
 
-    /// Each beam's [`LikelihoodField::log_likelihood`] seen from every pose, beam-major:
-    /// `out[b · n + i]` for beam b and pose i, n = `x.len()`; `out` holds at least
-    /// n × `bx.len()` values. Summing a pose's values over the beams in order gives
-    /// [`LikelihoodField::scan_log_likelihoods`] bit for bit.
+    /// One beam's [`LikelihoodField::log_likelihood`] seen from every pose: the endpoint
+    /// (`u`, `v`, in the robot frame) from pose i at (`x[i]`, `y[i]`) with heading sine and
+    /// cosine `sin_cos[i]`, into `out[i]`. Summing a pose's values over the beams in order
+    /// gives [`LikelihoodField::scan_log_likelihoods`] bit for bit.
     pub fn beam_log_likelihoods(
         &self,
-        bx: &[f64],
-        by: &[f64],
+        (u, v): (f64, f64),
         x: &[f64],
         y: &[f64],
-        th: &[f64],
+        sin_cos: &[(f64, f64)],
         out: &mut [f64],
     ) {
-        let n = x.len();
-        let (y, th) = (&y[..n], &th[..n]);
-        let by = &by[..bx.len()];
-        let out = &mut out[..n * bx.len()];
+        let n = out.len();
+        let (x, y, sin_cos) = (&x[..n], &y[..n], &sin_cos[..n]);
         for i in 0..n {
-            let (s, c) = th[i].sin_cos();
-            for (b, (&u, &v)) in bx.iter().zip(by).enumerate() {
-                out[b * n + i] = self.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
-            }
+            let (s, c) = sin_cos[i];
+            out[i] = self.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
         }
     }
 
@@ -495,15 +504,16 @@ pub(crate) mod tests {
         let th = [0.0, 1.0, -2.0, 0.5, 3.0, -0.7, 2.2];
         let mut sums = [0.0; 7];
         f.scan_log_likelihoods(&bx, &by, &x, &y, &th, &mut sums);
-        let mut per = vec![0.0; 7 * 5];
-        f.beam_log_likelihoods(&bx, &by, &x, &y, &th, &mut per);
-        for i in 0..7 {
-            let mut l = 0.0;
-            for b in 0..5 {
-                l += per[b * 7 + i];
+        let sin_cos: Vec<(f64, f64)> = th.iter().map(|t| t.sin_cos()).collect();
+        let mut total = [0.0; 7];
+        let mut row = [0.0; 7];
+        for (&u, &v) in bx.iter().zip(&by) {
+            f.beam_log_likelihoods((u, v), &x, &y, &sin_cos, &mut row);
+            for (t, l) in total.iter_mut().zip(&row) {
+                *t += l;
             }
-            assert_eq!(l, sums[i], "pose {i}");
         }
+        assert_eq!(total, sums);
         // The curve at distance 0 is the table at a wall's surface cell.
         assert!((f.log_likelihood_at_distance(0.0) - f.log_nearest(0.525, 0.275)).abs() < 1e-6);
         assert!(sums.iter().any(|l| *l > 5.0 * f.log_floor()), "{sums:?}");

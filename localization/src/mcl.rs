@@ -314,8 +314,8 @@ pub struct Mcl {
     kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
     beams: Beams,
-    /// Per-beam, per-particle log-likelihoods for beam skipping (empty without it).
-    beam_scratch: Vec<f64>,
+    /// Beam skipping's scratch (empty without it).
+    beam_scratch: BeamScratch,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
     grid_origin: [f64; 2],
@@ -460,7 +460,7 @@ impl Mcl {
                 params.kld_bin,
             ),
             beams: Beams::with_capacity(params.max_beams),
-            beam_scratch: Vec::new(),
+            beam_scratch: BeamScratch::default(),
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
@@ -619,7 +619,7 @@ impl Mcl {
             let y: Vec<f64> = poses.iter().map(|p| p.y).collect();
             let th: Vec<f64> = poses.iter().map(|p| p.theta).collect();
             let model = ScanModel::new(&field, &self.params, &beams, scan);
-            model.log_likelihoods(&x, &y, &th, &mut out, &mut Vec::new());
+            model.log_likelihoods(&x, &y, &th, &mut out, &mut BeamScratch::default());
         }
         out
     }
@@ -747,6 +747,14 @@ impl Beams {
     }
 }
 
+/// Beam skipping's buffers, kept between updates: one beam's log-likelihoods from every
+/// particle, and the particles' headings' sines and cosines.
+#[derive(Debug, Clone, Default)]
+struct BeamScratch {
+    row: Vec<f64>,
+    sin_cos: Vec<(f64, f64)>,
+}
+
 /// The laser model of one scan: the selected beams and the map they are weighed on.
 struct ScanModel<'a> {
     field: &'a LikelihoodField,
@@ -773,37 +781,46 @@ impl<'a> ScanModel<'a> {
     }
 
     /// Fills `out` with the log-likelihood of the scan at each robot pose (x, y, θ); returns
-    /// how many beams it used. `scratch` holds the per-beam values of beam skipping.
+    /// how many beams it used.
     fn log_likelihoods(
         &self,
         x: &[f64],
         y: &[f64],
         th: &[f64],
         out: &mut [f64],
-        scratch: &mut Vec<f64>,
+        scratch: &mut BeamScratch,
     ) -> usize {
         let (field, mount, range_max) = (self.field, self.mount, self.range_max);
         let (bx, by) = (&self.beams.x[..], &self.beams.y[..]);
         let p = self.params;
         match p.sensor_model {
             SensorModel::LikelihoodField if p.beam_skip_distance > 0.0 => {
+                // One beam at a time, so that its row stays in cache: the row is added to
+                // the sums when enough particles explain the beam, in beam order as the plain
+                // sum adds them.
                 let n = x.len();
-                scratch.resize(n * bx.len(), 0.0);
-                field.beam_log_likelihoods(bx, by, x, y, th, scratch);
+                let BeamScratch { row, sin_cos } = scratch;
+                row.resize(n, 0.0);
+                sin_cos.clear();
+                sin_cos.extend(th.iter().map(|t| t.sin_cos()));
                 let hit = field.log_likelihood_at_distance(p.beam_skip_distance);
-                let rows = || scratch.chunks_exact(n);
-                let explained = |row: &[f64]| row.iter().filter(|l| **l >= hit).count();
-                let kept = |row: &[f64]| explained(row) as f64 >= p.beam_skip_threshold * n as f64;
-                let n_kept = rows().filter(|r| kept(r)).count();
-                let skip_none =
-                    (bx.len() - n_kept) as f64 > p.beam_skip_error_threshold * bx.len() as f64;
+                let min_explained = p.beam_skip_threshold * n as f64;
                 out.fill(0.0);
-                for row in rows().filter(|r| skip_none || kept(r)) {
-                    for (o, l) in out.iter_mut().zip(row) {
-                        *o += l;
+                let mut n_kept = 0;
+                for (&u, &v) in bx.iter().zip(by) {
+                    field.beam_log_likelihoods((u, v), x, y, sin_cos, row);
+                    let explained = row.iter().filter(|l| **l >= hit).count();
+                    if explained as f64 >= min_explained {
+                        n_kept += 1;
+                        for (o, l) in out.iter_mut().zip(row.iter()) {
+                            *o += l;
+                        }
                     }
                 }
-                if skip_none {
+                let skipped = (bx.len() - n_kept) as f64;
+                if skipped > p.beam_skip_error_threshold * bx.len() as f64 {
+                    // Most beams unexplained: the cloud is lost, not the beams cluttered.
+                    field.scan_log_likelihoods(bx, by, x, y, th, out);
                     bx.len()
                 } else {
                     n_kept
