@@ -340,6 +340,7 @@ impl Pending {
 }
 
 /// The auxiliary particle filter on an [`AppearanceModel`] (000 §VI).
+#[derive(Clone)]
 pub struct AppearanceApf {
     core: FilterCore,
     params: ApfParams,

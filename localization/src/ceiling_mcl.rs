@@ -259,6 +259,7 @@ pub fn reading_brightness(image: &IntensityImage) -> Result<f64, LocalizationErr
 }
 
 /// Particle filter on a [`CeilingMap`] (001).
+#[derive(Clone)]
 pub struct CeilingMcl {
     core: FilterCore,
     params: CeilingMclParams,

@@ -35,6 +35,7 @@ pub mod particles;
 pub mod pca;
 pub mod resampling;
 pub mod scan_match;
+pub mod shared_member;
 pub mod wifi_graph;
 pub mod wifi_mcl;
 
@@ -58,3 +59,4 @@ pub use particle_set::ParticleSet;
 pub use resampling::{
     low_variance_indices, low_variance_indices_with_offset, Injection, ResamplePolicy,
 };
+pub use shared_member::SharedMember;

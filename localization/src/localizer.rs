@@ -86,6 +86,13 @@ pub trait Capabilities {
     fn log(&mut self) -> Option<String> {
         None
     }
+    /// A copy in the present state, random streams included, that goes on exactly as this
+    /// one would. Choosers share one filter per member and copy it only when they re-seed it
+    /// (`shared_member.rs`); a localizer that cannot be copied keeps a private instance per
+    /// chooser.
+    fn clone_localizer(&self) -> Option<Box<dyn Localizer>> {
+        None
+    }
 }
 
 /// The observation fit of `l`, if it measures one.

@@ -99,6 +99,7 @@ impl OmniMclParams {
 }
 
 /// Particle filter on an [`OmniMap`] (001).
+#[derive(Clone)]
 pub struct OmniMcl {
     core: FilterCore,
     params: OmniMclParams,

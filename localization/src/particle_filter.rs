@@ -76,7 +76,7 @@ impl FilterCore {
 }
 
 /// A particle filter on a [`FilterCore`]; [`Localizer`] and [`Capabilities`] come with it.
-pub trait ParticleFilter: Send + 'static {
+pub trait ParticleFilter: Clone + Send + 'static {
     fn core(&self) -> &FilterCore;
 
     fn core_mut(&mut self) -> &mut FilterCore;
@@ -144,6 +144,10 @@ impl<T: ParticleFilter> Capabilities for T {
 
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         self.reseed(pose, sigma)
+    }
+
+    fn clone_localizer(&self) -> Option<Box<dyn Localizer>> {
+        Some(Box::new(self.clone()))
     }
 }
 

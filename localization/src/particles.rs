@@ -180,7 +180,7 @@ impl CarriedEstimate {
 
 /// Readings a filter refused (wrong size, non-finite values) and the last reason: a bad
 /// reading is counted, never a panic nor an error that stops a run.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Rejections {
     pub count: usize,
     pub last: Option<LocalizationError>,

@@ -168,6 +168,7 @@ fn normal_cdf(z: f64) -> f64 {
 }
 
 /// Particle filter on a [`WifiGraph`].
+#[derive(Clone)]
 pub struct WifiMcl {
     core: FilterCore,
     params: WifiMclParams,

@@ -17,7 +17,7 @@ use crate::error::ScenarioError;
 use crate::maps::SharedMaps;
 use crate::runner::{run_localizers, ReadingStream, RunOptions, RunResult, SimStream};
 use crate::scenario::{Event, LocalizerSpec, Scenario};
-use atrium_localization::Localizer;
+use atrium_localization::{Localizer, SharedMember};
 use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -34,6 +34,16 @@ pub struct BuildContext<'a> {
     pub run_seed: u64,
     /// The registry building this localizer (a chooser builds its members through it).
     pub registry: &'a LocalizerRegistry,
+    /// The run's shared chooser members, when the whole run is being built.
+    members: Option<&'a mut MemberPool>,
+}
+
+/// The chooser members of a run being built: one filter per localizer name, shared by the
+/// stand-alone localizer of that name and every chooser naming it (see [`SharedMember`]).
+#[derive(Default)]
+struct MemberPool {
+    /// Name, the first handle, and whether the filter can be copied (asked once).
+    members: Vec<(String, SharedMember, Option<bool>)>,
 }
 
 impl BuildContext<'_> {
@@ -89,6 +99,39 @@ impl BuildContext<'_> {
     pub fn build(&mut self, spec: &LocalizerSpec) -> Result<Box<dyn Localizer>, ScenarioError> {
         self.registry
             .build(spec, self.scenario, self.maps, self.run_seed)
+    }
+
+    /// A chooser's member: when the whole run is being built, a handle on the run's one
+    /// filter of that name, shared with the stand-alone localizer and the other choosers
+    /// (seeded alike, they would compute the same until re-seeded; see [`SharedMember`]).
+    /// `reseeded`: the caller may re-seed it, which needs a filter that can be copied; one
+    /// that cannot, or a localizer built on its own, gets a private instance as
+    /// [`BuildContext::build`] gives.
+    pub fn build_member(
+        &mut self,
+        spec: &LocalizerSpec,
+        reseeded: bool,
+    ) -> Result<Box<dyn Localizer>, ScenarioError> {
+        let Some(pool) = self.members.as_deref_mut() else {
+            return self.build(spec);
+        };
+        let i = match pool.members.iter().position(|(n, _, _)| *n == spec.name) {
+            Some(i) => i,
+            None => {
+                let l = self
+                    .registry
+                    .build(spec, self.scenario, self.maps, self.run_seed)?;
+                pool.members
+                    .push((spec.name.clone(), SharedMember::new(l), None));
+                pool.members.len() - 1
+            }
+        };
+        let (_, member, copyable) = &mut pool.members[i];
+        let copyable = *copyable.get_or_insert_with(|| member.can_copy());
+        if reseeded && !copyable {
+            return self.build(spec);
+        }
+        Ok(Box::new(member.share()))
     }
 }
 
@@ -227,12 +270,24 @@ impl LocalizerRegistry {
     }
 
     /// Builds the localizer `spec` names, seeded from `run_seed` (see [`localizer_seed`]).
+    /// A chooser built alone has members of its own (see [`BuildContext::build_member`]).
     pub fn build(
         &self,
         spec: &LocalizerSpec,
         scenario: &Scenario,
         maps: &mut SharedMaps,
         run_seed: u64,
+    ) -> Result<Box<dyn Localizer>, ScenarioError> {
+        self.build_in_run(spec, scenario, maps, run_seed, None)
+    }
+
+    fn build_in_run(
+        &self,
+        spec: &LocalizerSpec,
+        scenario: &Scenario,
+        maps: &mut SharedMaps,
+        run_seed: u64,
+        members: Option<&mut MemberPool>,
     ) -> Result<Box<dyn Localizer>, ScenarioError> {
         let factory = self.factory(spec, scenario)?.clone();
         let mut ctx = BuildContext {
@@ -241,11 +296,15 @@ impl LocalizerRegistry {
             maps,
             run_seed,
             registry: self,
+            members,
         };
         factory.build(&mut ctx)
     }
 
-    /// Builds every localizer of `scenario`, in scenario order.
+    /// Builds every localizer of `scenario`, in scenario order. Choosers share their members'
+    /// filters with each other and with the stand-alone localizers of the same names (see
+    /// [`BuildContext::build_member`]): a stand-alone localizer some chooser names is a handle
+    /// on that filter.
     pub fn build_all(
         &self,
         scenario: &Scenario,
@@ -253,11 +312,20 @@ impl LocalizerRegistry {
     ) -> Result<Vec<Box<dyn Localizer>>, ScenarioError> {
         self.check(scenario)?;
         let mut maps = SharedMaps::default();
-        scenario
+        let mut pool = MemberPool::default();
+        let mut built = scenario
             .localizers
             .iter()
-            .map(|spec| self.build(spec, scenario, &mut maps, run_seed))
-            .collect()
+            .map(|spec| self.build_in_run(spec, scenario, &mut maps, run_seed, Some(&mut pool)))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (name, member, _) in pool.members {
+            // Built from the same entry with the same seed, the pooled filter is what the
+            // stand-alone instance would compute; holding it, the run keeps one of them.
+            if let Some(i) = scenario.localizers.iter().position(|s| s.name == name) {
+                built[i] = Box::new(member);
+            }
+        }
+        Ok(built)
     }
 
     /// Runs `scenario` live with its localizers built from this registry, scores them and

@@ -13,10 +13,12 @@
 //! reseed = true
 //! ```
 //!
-//! Members are built as the chooser's own fresh instances, seeded like the stand-alone
-//! localizers of the same name (paired: until a re-seed they compute exactly what the
-//! stand-alone ones do, so the chooser's error is compared with theirs on the same draws);
-//! a chooser never disturbs the stand-alone instances. Keys:
+//! Members are seeded like the stand-alone localizers of the same name (paired: until a
+//! re-seed they compute exactly what the stand-alone ones do, so the chooser's error is
+//! compared with theirs on the same draws). In a run they are one filter per name, shared by
+//! the stand-alone localizer and every chooser, which gets a copy of its own when it
+//! re-seeds it (`atrium_localization::shared_member`); a chooser never disturbs the
+//! stand-alone localizers or the other choosers. Keys:
 //! - both kinds: `members`, `reseed` (default true), `reseed_members` (the members it may
 //!   move; default all), `reseed_gate_sigmas` (3),
 //!   `reseed_min_distance_m` (0.5), `reseed_min_sigma_xy` (0.3), `reseed_min_sigma_theta`
@@ -768,9 +770,10 @@ pub fn build(ctx: &mut BuildContext) -> Result<Box<dyn Localizer>, ScenarioError
     };
 
     let mut members = Vec::with_capacity(member_specs.len());
-    for m in member_specs {
-        // Seeded like the stand-alone localizer of the same name (see `localizer_seed`).
-        members.push(ctx.build(m)?);
+    for (m, moved) in member_specs.into_iter().zip(&reseedable) {
+        // Seeded like the stand-alone localizer of the same name (see `localizer_seed`), so
+        // it is that localizer's filter until this chooser re-seeds it.
+        members.push(ctx.build_member(m, reseed && *moved)?);
     }
     let mut chooser = Chooser::new(
         &spec.name,
@@ -1072,6 +1075,96 @@ graph = "{dir}/missing_graph_is_not_needed_here.json"
             "{e}"
         );
         assert!(started.elapsed().as_secs_f64() < 5.0, "it ran the training");
+    }
+
+    /// Choosers re-seeding at every update (gates at zero): two alike and one other, over
+    /// laser and depth CGR, on 12 s of the campus corridor.
+    fn reseeding_choosers() -> Scenario {
+        let root = env!("CARGO_MANIFEST_DIR");
+        let chooser = |name: &str, strategy: &str| {
+            format!(
+                "[[localizers]]\nname = \"{name}\"\nkind = \"chooser\"\nstrategy = \"{strategy}\"\n\
+                 members = [\"laser\", \"depth\"]\nreseed_gate_sigmas = 0.0\n\
+                 reseed_min_distance_m = 0.0\n"
+            )
+        };
+        let text = format!(
+            r#"
+name = "t"
+world = "{root}/../worlds/campus.toml"
+robot = "{root}/../robots/urdf/pioneer3dx.urdf"
+duration_s = 12.0
+[start]
+pose = [20.0, 20.0, 0.0]
+[route]
+waypoints = [[29.0, 20.0], [40.0, 20.0]]
+[depth_cameras.kinect]
+preset = "kinect"
+mount = "camera"
+decimation = 4
+rate_hz = 5
+[[localizers]]
+name = "laser"
+kind = "cgr_laser"
+particles = 20
+[[localizers]]
+name = "depth"
+kind = "cgr_depth"
+particles = 20
+fspf = {{ eta = 15 }}
+{}{}{}"#,
+            chooser("a", "uncertainty"),
+            chooser("b", "uncertainty"),
+            chooser("c", "mismatch")
+        );
+        Scenario::from_toml_str(&text, Path::new(root).join("t.toml").as_path()).unwrap()
+    }
+
+    /// In a run the choosers' members are the stand-alone filters until re-seeded, and a
+    /// chooser's results are bit for bit those it has with members of its own.
+    #[test]
+    fn shared_members_give_what_private_members_give() {
+        let s = reseeding_choosers();
+        let registry = crate::LocalizerRegistry::with_builtins();
+        let mut shared = registry.build_all(&s, 7).unwrap();
+        for (i, name) in [(0, "laser"), (1, "depth")] {
+            let handle = shared[i]
+                .capabilities()
+                .and_then(|c| c.as_any())
+                .and_then(|a| a.downcast_ref::<atrium_localization::SharedMember>());
+            assert!(
+                handle.is_some_and(|h| h.is_shared()),
+                "{name}: the stand-alone filter is not shared with the choosers"
+            );
+        }
+        let mut maps = crate::maps::SharedMaps::default();
+        let private: Vec<Box<dyn Localizer>> = s
+            .localizers
+            .iter()
+            .map(|spec| registry.build(spec, &s, &mut maps, 7).unwrap())
+            .collect();
+        let run = |localizers: Vec<Box<dyn Localizer>>| {
+            let mut stream = SimStream::new(&s, 7).unwrap();
+            crate::run_localizers(&s, 7, &mut stream, &[], localizers, RunOptions::default())
+                .unwrap()
+        };
+        let (shared, private) = (run(shared), run(private));
+        for (a, b) in shared.localizers.iter().zip(&private.localizers) {
+            assert!(!a.trajectory.is_empty());
+            assert_eq!(a.trajectory, b.trajectory, "{}", a.name);
+        }
+        // With the gates at zero every update re-seeds the member not chosen, so the run
+        // made copies: shared by the two alike, apart for the other.
+        let traj = |n: &str| {
+            &shared
+                .localizers
+                .iter()
+                .find(|l| l.name == n)
+                .unwrap()
+                .trajectory
+        };
+        assert_eq!(traj("a"), traj("b"));
+        assert_ne!(traj("a"), traj("c"));
     }
 
     fn chooser(l: &mut dyn Localizer) -> &Chooser {
