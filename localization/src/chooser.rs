@@ -407,6 +407,10 @@ impl Capabilities for Chooser {
         self.fits[self.chosen]
     }
 
+    fn chosen_member(&self) -> Option<&str> {
+        Some(self.members[self.chosen].name())
+    }
+
     /// Re-seeds every member; true if any could be.
     fn reset_to(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         let mut any = false;
@@ -517,6 +521,10 @@ mod tests {
         let mut c = Chooser::new("c", members(), strategy, None).unwrap();
         c.update(&scan()).unwrap();
         assert_eq!(c.choice_counts()[c.chosen()], 1);
+        assert_eq!(
+            Capabilities::chosen_member(&c),
+            Some(c.members()[c.chosen()].name())
+        );
         c.chosen()
     }
 

@@ -86,6 +86,11 @@ pub trait Capabilities {
     fn log(&mut self) -> Option<String> {
         None
     }
+    /// The member a chooser outputs now, by name (`chooser.rs`): the runner records it at
+    /// every scored instant, so that a run reports the share of time each member was chosen.
+    fn chosen_member(&self) -> Option<&str> {
+        None
+    }
     /// A copy in the present state, random streams included, that goes on exactly as this
     /// one would. Choosers share one filter per member and copy it only when they re-seed it
     /// (`shared_member.rs`); a localizer that cannot be copied keeps a private instance per

@@ -8,6 +8,9 @@
 //! - `recovered_within_s`: the longest recovery after a kidnapping
 //! - `nees_max` / `nees_min`: mean NEES over (x, y)
 //! - `[expect.L.regions.<name>]` / `[expect.L.region_kinds.<kind>]`: `<stat>_max` / `_min` there
+//! - `[expect.L.chosen]`: `<member>_min` / `_max`, a chooser's share (0–1) of the scored
+//!   instants at which that member's estimate was its output; a localizer that chooses
+//!   nothing has no share, so a single member never meets such a bound
 //! - `[[expect.L.ratios]] numerator = "<path>", denominator = "<path>", min = .., max = ..`
 //! - `[[expect.L.compare]] metric = "<path>", other = "<localizer>", max_ratio = .., min_ratio = ..`
 //! - `[expect.L.slam]`: EKF-SLAM map and covariance-monitor checks, documented in `slam.rs`
@@ -16,7 +19,7 @@
 //!
 //! A metric path is `position_error.<stat>`, `heading_error.<stat>`, `final_position_error`,
 //! `converged_after_s`, `after_convergence.<stat>`, `recovered_after_s`, `mean_nees_xy`,
-//! `regions.<name>.<stat>` or `region_kinds.<kind>.<stat>`.
+//! `regions.<name>.<stat>`, `region_kinds.<kind>.<stat>` or `chosen.<member>`.
 
 use crate::error::ScenarioError;
 use crate::metrics::LocalizerMetrics;
@@ -109,6 +112,16 @@ fn check_path(path: &str, scenario: &Scenario, field: &str) -> Result<(), Scenar
         ["region_kinds", kind, stat] => {
             ["corridor", "glass_corridor", "atrium", "room", "outside"].contains(kind)
                 && STATS.contains(stat)
+        }
+        ["chosen", member] => {
+            if !scenario.localizers.iter().any(|l| l.name == *member) {
+                return Err(ScenarioError::field(
+                    &scenario.file,
+                    field,
+                    format!("no localizer named {member:?} in this scenario"),
+                ));
+            }
+            true
         }
         _ => false,
     };
@@ -252,6 +265,28 @@ pub fn parse_expectations(
                         }
                     }
                 }
+                "chosen" => {
+                    let shares = v.as_table().ok_or_else(|| {
+                        ScenarioError::field(file, &field, "must be a table of members")
+                    })?;
+                    for (k, limit) in shares {
+                        let f = format!("{field}.{k}");
+                        let (member, bound) = stat_suffix(k).ok_or_else(|| {
+                            ScenarioError::field(
+                                file,
+                                &f,
+                                "unknown key: use <member>_min or <member>_max",
+                            )
+                        })?;
+                        let metric = format!("chosen.{member}");
+                        check_path(&metric, scenario, &f)?;
+                        list.push(Expectation::Bound {
+                            metric,
+                            bound,
+                            limit: number(limit, file, &f)?,
+                        });
+                    }
+                }
                 // Checked here for typos, evaluated by the runner from the SLAM report.
                 "slam" => {
                     crate::slam::check_table(v, file, &field)?;
@@ -339,6 +374,11 @@ pub fn metric_value(src: &MetricSource, path: &str) -> Option<f64> {
         }
         ["regions", name, s] => m.per_region.get(*name).and_then(|r| r.get(s)),
         ["region_kinds", kind, s] => m.per_region_kind.get(*kind).and_then(|r| r.get(s)),
+        // A chooser never choosing a member chose it 0 % of the time; a localizer that
+        // chooses nothing has no share.
+        ["chosen", member] => {
+            (!m.chosen.is_empty()).then(|| m.chosen.get(*member).copied().unwrap_or(0.0))
+        }
         _ => None,
     }
 }
@@ -560,5 +600,42 @@ mod tests {
         let r = evaluate(loose.iter(), &src(&good), &lookup);
         assert!(r[0].passed && r[1].passed && !r[2].passed, "{r:?}");
         assert_eq!(r[2].metric, "claims also met by odometry");
+    }
+
+    /// `[expect.L.chosen]` bounds a chooser's share of time per member; a localizer that
+    /// chooses nothing has no share, so it fails such a bound (a baseline member cannot meet
+    /// it); a member name that is no localizer of the scenario is refused at load.
+    #[test]
+    fn chosen_shares_bound_a_chooser_and_no_single_member() {
+        let mut s =
+            Scenario::load(&crate::bundled_scenarios_dir().join("corridor_tracking.toml")).unwrap();
+        s.expect = toml::from_str("[mcl.chosen]\nodometry_min = 0.2\nmcl_max = 0.5").unwrap();
+        let exps: Vec<Expectation> = parse_expectations(&s)
+            .unwrap()
+            .into_iter()
+            .map(|(_, e)| e)
+            .collect();
+        let mut chooser = metrics_of(&[0.01, 0.02]);
+        chooser.chosen = [("odometry".to_string(), 1.0)].into_iter().collect();
+        let src = |m| MetricSource {
+            metrics: m,
+            recoveries: &[],
+        };
+        let r = evaluate(exps.iter(), &src(&chooser), &|_| None);
+        // odometry chosen all the time; mcl never, which is a share of 0, not a missing value.
+        assert!(r.iter().all(|r| r.passed), "{r:?}");
+        assert_eq!(r[0].metric, "chosen.mcl");
+        assert_eq!(r[0].value, Some(0.0));
+        let single = metrics_of(&[0.01, 0.02]);
+        let r = evaluate(exps.iter(), &src(&single), &|_| None);
+        assert!(r.iter().all(|r| !r.passed && r.value.is_none()), "{r:?}");
+
+        s.expect = toml::from_str("[mcl.chosen]\nsonar_min = 0.2").unwrap();
+        let e = parse_expectations(&s).unwrap_err().to_string();
+        assert!(e.contains("expect.mcl.chosen.sonar_min"), "{e}");
+        assert!(e.contains("no localizer named \"sonar\""), "{e}");
+        s.expect = toml::from_str("[mcl.chosen]\nodometry = 0.2").unwrap();
+        let e = parse_expectations(&s).unwrap_err().to_string();
+        assert!(e.contains("use <member>_min or <member>_max"), "{e}");
     }
 }

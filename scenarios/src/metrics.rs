@@ -124,6 +124,9 @@ pub struct LocalizerMetrics {
     pub after_convergence: Option<ErrorStats>,
     /// Mean NEES over (x, y): 2 for a consistent filter.
     pub mean_nees_xy: Option<f64>,
+    /// A chooser's share of the scored instants at which each member's estimate was its
+    /// output (members never chosen are left out); empty for every other localizer.
+    pub chosen: BTreeMap<String, f64>,
 }
 
 /// Scores one localizer's samples; `regions[i]` is the (name, kind) of the region sample `i`
@@ -186,6 +189,7 @@ pub fn score(
         converged_after_s,
         after_convergence,
         mean_nees_xy,
+        chosen: BTreeMap::new(),
     })
 }
 

@@ -36,6 +36,7 @@ pub fn to_json(r: &RunResult) -> Value {
                 "converged_after_s": m.and_then(|m| m.converged_after_s),
                 "after_convergence": m.and_then(|m| m.after_convergence.as_ref().map(stats_json)),
                 "mean_nees_xy": m.and_then(|m| m.mean_nees_xy),
+                "chosen": m.and_then(|m| (!m.chosen.is_empty()).then(|| m.chosen.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>())),
                 "recoveries": r.events.iter().zip(&l.recoveries).map(|(e, rec)| json!({
                     "kind": e.kind(),
                     "at_s": e.at_s(),
@@ -145,6 +146,22 @@ pub fn to_text(r: &RunResult) -> String {
                 let _ = write!(s, " {cell:>20}");
             }
             let _ = writeln!(s);
+        }
+    }
+    let choosers: Vec<_> = r
+        .localizers
+        .iter()
+        .filter_map(|l| l.metrics.as_ref().map(|m| (l, &m.chosen)))
+        .filter(|(_, c)| !c.is_empty())
+        .collect();
+    if !choosers.is_empty() {
+        let _ = writeln!(s, "\nshare of time each member was chosen");
+        for (l, chosen) in choosers {
+            let shares: Vec<String> = chosen
+                .iter()
+                .map(|(m, v)| format!("{m} {:.0} %", 100.0 * v))
+                .collect();
+            let _ = writeln!(s, "{:<22} {}", l.name, shares.join(", "));
         }
     }
     for (l, ev) in r

@@ -10,6 +10,7 @@ use atrium_localization::{Estimate, Localizer, LocalizerError, OdometryDelta};
 use atrium_robots::{Pose2, Reading};
 use atrium_sim::Simulation;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// Per-run choices that are not part of the scenario.
@@ -352,6 +353,8 @@ pub fn run_localizers(
     let mut trajectories: Vec<Vec<(f64, Pose2)>> = vec![Vec::new(); n];
     let mut samples: Vec<Vec<Sample>> = vec![Vec::new(); n];
     let mut cpu = vec![0.0f64; n];
+    // Per chooser: scored instants at which each member was its output.
+    let mut chosen: Vec<BTreeMap<String, usize>> = vec![BTreeMap::new(); n];
     let mut ground_truth = Vec::new();
     let mut regions = Vec::new();
     let mut estimates: Vec<Estimate> = Vec::with_capacity(n);
@@ -412,7 +415,15 @@ pub fn run_localizers(
                     (r.name.clone(), kind)
                 }));
                 estimates.clear();
-                for (i, l) in localizers.iter().enumerate() {
+                for (i, l) in localizers.iter_mut().enumerate() {
+                    if let Some(member) = l.capabilities().and_then(|c| c.chosen_member()) {
+                        match chosen[i].get_mut(member) {
+                            Some(k) => *k += 1,
+                            None => {
+                                chosen[i].insert(member.to_owned(), 1);
+                            }
+                        }
+                    }
                     let est = l.estimate();
                     trajectories[i].push((now, est.pose));
                     samples[i].push(Sample {
@@ -441,12 +452,19 @@ pub fn run_localizers(
 
     let mut runs: Vec<LocalizerRun> = Vec::with_capacity(n);
     for (i, spec) in scenario.localizers.iter().enumerate() {
-        let metrics = metrics::score(
+        let mut metrics = metrics::score(
             &samples[i],
             &regions,
             scenario.metrics.converge_threshold_m,
             scenario.metrics.converge_hold_s,
         );
+        if let Some(m) = metrics.as_mut() {
+            let scored = samples[i].len() as f64;
+            m.chosen = std::mem::take(&mut chosen[i])
+                .into_iter()
+                .map(|(member, k)| (member, k as f64 / scored))
+                .collect();
+        }
         let recoveries = events
             .iter()
             .map(|ev| {

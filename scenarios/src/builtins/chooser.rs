@@ -1165,6 +1165,17 @@ fspf = {{ eta = 15 }}
         };
         assert_eq!(traj("a"), traj("b"));
         assert_ne!(traj("a"), traj("c"));
+        // Each chooser's shares of time per member add up to the whole run; single-sensor
+        // localizers choose nothing.
+        for l in &shared.localizers {
+            let chosen = &l.metrics.as_ref().unwrap().chosen;
+            if ["a", "b", "c"].contains(&l.name.as_str()) {
+                let total: f64 = chosen.values().sum();
+                assert!((total - 1.0).abs() < 1e-9, "{}: {chosen:?}", l.name);
+            } else {
+                assert!(chosen.is_empty(), "{}: {chosen:?}", l.name);
+            }
+        }
     }
 
     fn chooser(l: &mut dyn Localizer) -> &Chooser {
