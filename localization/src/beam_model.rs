@@ -146,7 +146,6 @@ pub fn cast_ray(field: &LikelihoodField, x: f64, y: f64, c: f64, s: f64, range_m
 #[cfg(test)]
 mod tests {
     use super::*;
-    use atrium_worlds::{Cell, OccupancyGrid};
 
     fn params() -> BeamModelParams {
         BeamModelParams::default()
@@ -195,24 +194,11 @@ mod tests {
     fn room() -> LikelihoodField {
         // 4 m × 2 m at 0.05 m, walls one cell thick on every side, plus a 0.5 m thick wall
         // at x ∈ [3.0, 3.5).
-        let (w, h, r) = (80usize, 40usize, 0.05);
-        let mut cells = vec![Cell::Free; w * h];
-        for j in 0..h {
-            for i in 0..w {
-                let edge = i == 0 || j == 0 || i == w - 1 || j == h - 1;
-                if edge || (60..70).contains(&i) {
-                    cells[j * w + i] = Cell::Occupied;
-                }
-            }
-        }
-        let grid = OccupancyGrid {
-            origin: [0.0, 0.0],
-            resolution: r,
-            width: w,
-            height: h,
-            cells,
-        };
-        LikelihoodField::new(&grid, crate::likelihood_field::tests::tight_params()).unwrap()
+        let (w, h) = (80, 40);
+        crate::likelihood_field::tests::field_where(w, h, 0.05, |i, j| {
+            let edge = i == 0 || j == 0 || i == w - 1 || j == h - 1;
+            edge || (60..70).contains(&i)
+        })
     }
 
     #[test]

@@ -439,6 +439,30 @@ pub(crate) mod tests {
         }
     }
 
+    /// The field of a `w` × `h` grid of `res` cells at the origin, occupied where
+    /// `occupied(i, j)` says, with [`tight_params`].
+    pub(crate) fn field_where(
+        w: usize,
+        h: usize,
+        res: f64,
+        occupied: impl Fn(usize, usize) -> bool,
+    ) -> LikelihoodField {
+        let cells = (0..w * h)
+            .map(|k| match occupied(k % w, k / w) {
+                true => Cell::Occupied,
+                false => Cell::Free,
+            })
+            .collect();
+        let grid = OccupancyGrid {
+            origin: [0.0, 0.0],
+            resolution: res,
+            width: w,
+            height: h,
+            cells,
+        };
+        LikelihoodField::new(&grid, tight_params()).unwrap()
+    }
+
     fn grid(w: usize, h: usize, occupied: &[(usize, usize)]) -> OccupancyGrid {
         let mut cells = vec![Cell::Free; w * h];
         for &(i, j) in occupied {

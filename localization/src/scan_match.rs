@@ -225,32 +225,17 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::likelihood_field::{tests::tight_params, LikelihoodField};
-    use atrium_worlds::{Cell, OccupancyGrid};
+    use crate::likelihood_field::{tests::field_where, LikelihoodField};
 
     /// A 6 m × 4 m room of 0.02 m cells, walls one cell thick on every side, and a pillar
     /// 0.4 m square off-centre so that the room has one pose that fits.
     fn room() -> LikelihoodField {
-        let res = 0.02;
-        let (w, h) = (300usize, 200usize);
-        let mut cells = vec![Cell::Free; w * h];
-        for j in 0..h {
-            for i in 0..w {
-                let wall = i == 0 || j == 0 || i == w - 1 || j == h - 1;
-                let pillar = (200..220).contains(&i) && (50..70).contains(&j);
-                if wall || pillar {
-                    cells[j * w + i] = Cell::Occupied;
-                }
-            }
-        }
-        let grid = OccupancyGrid {
-            origin: [0.0, 0.0],
-            resolution: res,
-            width: w,
-            height: h,
-            cells,
-        };
-        LikelihoodField::new(&grid, tight_params()).unwrap()
+        let (w, h) = (300, 200);
+        field_where(w, h, 0.02, |i, j| {
+            let wall = i == 0 || j == 0 || i == w - 1 || j == h - 1;
+            let pillar = (200..220).contains(&i) && (50..70).contains(&j);
+            wall || pillar
+        })
     }
 
     /// Endpoints of an ideal 72-beam scan from `pose`, ray-marched on the field's distances,

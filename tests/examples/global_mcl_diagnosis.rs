@@ -5,12 +5,15 @@
 //! 1 m and 20° of the true pose ("near"), the number of particles there, the effective sample
 //! size and the estimate's error. It asserts nothing.
 
+#[path = "diag/mod.rs"]
+mod diag;
+
 use atrium_localization::{Mcl, ParticleFilter};
 use atrium_robots::{normalize_angle, Pose2, Reading};
-use atrium_scenarios::runner::{RunObserver, SimStream, Tick};
+use atrium_scenarios::runner::SimStream;
 use atrium_scenarios::{
     run_localizers, Capabilities, Estimate, Localizer, LocalizerError, LocalizerRegistry,
-    OdometryDelta, RunOptions, Scenario, ScenarioError,
+    OdometryDelta, RunOptions, Scenario,
 };
 use std::sync::{Arc, Mutex};
 
@@ -128,33 +131,9 @@ impl Localizer for Spy {
     }
 }
 
-struct LatestTruth(Arc<Mutex<Pose2>>);
-impl RunObserver for LatestTruth {
-    fn instant(
-        &mut self,
-        tick: &Tick,
-        _: &[Reading],
-        _: Option<&[Estimate]>,
-    ) -> Result<(), ScenarioError> {
-        if let Some(t) = tick.truth {
-            *self.0.lock().unwrap() = t;
-        }
-        Ok(())
-    }
-}
-
 fn main() {
-    let path = std::env::var("DIAG_SCENARIO").unwrap_or_else(|_| {
-        atrium_scenarios::bundled_scenarios_dir()
-            .join("global_localization.toml")
-            .display()
-            .to_string()
-    });
-    let seeds: Vec<u64> = std::env::var("DIAG_SEEDS")
-        .unwrap_or_else(|_| "1".into())
-        .split(',')
-        .map(|s| s.parse().expect("DIAG_SEEDS: comma-separated integers"))
-        .collect();
+    let path = diag::scenario_path("global_localization.toml");
+    let seeds = diag::seeds();
     let every: f64 = std::env::var("DIAG_EVERY")
         .map(|s| s.parse().expect("DIAG_EVERY: seconds"))
         .unwrap_or(2.0);
@@ -176,7 +155,7 @@ fn main() {
             next_print: 0.0,
         };
         let mut stream = SimStream::new(&one, seed).expect("the simulation starts");
-        let mut obs = LatestTruth(truth);
+        let mut obs = diag::LatestTruth(truth);
         run_localizers(
             &one,
             seed,

@@ -5,6 +5,9 @@
 //! error at the node (`DIAG_CAL` sets the odometry per seed, as for `oracle`); `gamma_map`: settled γ on rings around each node (`DIAG_HR`, `DIAG_MR`);
 //! `approach_profile`: γ along the teach-run approach (002 Fig. 4c).
 
+#[path = "diag/mod.rs"]
+mod diag;
+
 use atrium_localization::landmark_filter::LandmarkFilter;
 use atrium_robots::{Pose2, Reading};
 use atrium_scenarios::builtins::landmark::train_landmark_filter;
@@ -72,17 +75,8 @@ impl RunObserver for Truth {
 }
 
 fn diagnose() {
-    let path = std::env::var("DIAG_SCENARIO").unwrap_or_else(|_| {
-        atrium_scenarios::bundled_scenarios_dir()
-            .join("wheelchair_nodes.toml")
-            .display()
-            .to_string()
-    });
-    let seeds: Vec<u64> = std::env::var("DIAG_SEEDS")
-        .unwrap_or_else(|_| "1".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let path = diag::scenario_path("wheelchair_nodes.toml");
+    let seeds = diag::seeds();
     let mut scenario = Scenario::load(std::path::Path::new(&path)).unwrap();
     if std::env::var("DIAG_PAPER").is_ok() {
         paper_params(&mut scenario);
@@ -405,21 +399,6 @@ impl Capabilities for Oracle {
     }
 }
 
-struct LatestTruth(Arc<Mutex<Pose2>>);
-impl RunObserver for LatestTruth {
-    fn instant(
-        &mut self,
-        tick: &Tick,
-        _: &[Reading],
-        _: Option<&[Estimate]>,
-    ) -> Result<(), ScenarioError> {
-        if let Some(t) = tick.truth {
-            *self.0.lock().unwrap() = t;
-        }
-        Ok(())
-    }
-}
-
 /// `DIAG_CAL="r,s[,k];..."`: per seed (in `DIAG_SEEDS` order) the odometry's radius_error,
 /// separation_error and, if given, scale_error (`oracle` and `diagnose`).
 fn diag_cal() -> Vec<(f64, f64, Option<f64>)> {
@@ -446,17 +425,8 @@ fn set_cal(s: &mut Scenario, cal: Option<&(f64, f64, Option<f64>)>) {
 }
 
 fn oracle() {
-    let path = std::env::var("DIAG_SCENARIO").unwrap_or_else(|_| {
-        atrium_scenarios::bundled_scenarios_dir()
-            .join("wheelchair_nodes.toml")
-            .display()
-            .to_string()
-    });
-    let seeds: Vec<u64> = std::env::var("DIAG_SEEDS")
-        .unwrap_or_else(|_| "1".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let path = diag::scenario_path("wheelchair_nodes.toml");
+    let seeds = diag::seeds();
     let cal = diag_cal();
     let true_r: f64 = std::env::var("DIAG_TRUE_R")
         .map(|s| s.parse().unwrap())
@@ -488,7 +458,7 @@ fn oracle() {
             events: events.clone(),
         };
         let mut stream = SimStream::new(&one, *seed).unwrap();
-        let mut obs = LatestTruth(truth);
+        let mut obs = diag::LatestTruth(truth);
         run_localizers(
             &one,
             *seed,
