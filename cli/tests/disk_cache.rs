@@ -1,8 +1,8 @@
 //! The on-disk cache (`atrium_scenarios::disk_cache`) end to end: a run that builds the WiFi
-//! graph and stores it, a run that reads it back, and a run with `--no-cache` give the same
-//! results; a corrupt entry is rebuilt. Each test uses its own cache folder
-//! (`ATRIUM_CACHE_DIR` set on the child process only), so no test depends on the cache's
-//! state.
+//! graph (an MCL likelihood field) and stores it, a run that reads it back, and a run
+//! with `--no-cache` give the same results; a corrupt entry is rebuilt. Each test uses its own
+//! cache folder (`ATRIUM_CACHE_DIR` set on the child process only), so no test depends on the
+//! cache's state.
 
 #[allow(dead_code)]
 mod common;
@@ -116,5 +116,66 @@ fn a_cache_hit_gives_the_results_of_a_rebuild() {
     let edited = run(&scenario, &cache, &[]);
     assert_eq!(entries(&cache).len(), 2);
     assert_ne!(edited, uncached, "another survey, another graph");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A run without the cache, one that stores `kind`'s single entry, one that reads it, and one
+/// after the entry was truncated: the same results.
+fn same_results_through_the_cache(scenario: &Path, cache: &Path, kind: &str) {
+    let uncached = run(scenario, cache, &["--no-cache"]);
+    assert!(entries(cache).is_empty(), "--no-cache writes nothing");
+    let first = run(scenario, cache, &[]);
+    let stored = entries(cache);
+    assert_eq!(stored.len(), 1, "one {kind} stored: {stored:?}");
+    let name = stored[0].file_name().unwrap().to_string_lossy().to_string();
+    assert!(name.starts_with(&format!("{kind}-")), "{name}");
+    let written = std::fs::metadata(&stored[0]).unwrap().modified().unwrap();
+    let second = run(scenario, cache, &[]);
+    assert_eq!(
+        std::fs::metadata(&stored[0]).unwrap().modified().unwrap(),
+        written,
+        "a hit does not rewrite the entry"
+    );
+    assert_eq!(first, uncached);
+    assert_eq!(second, uncached);
+    let whole = std::fs::read(&stored[0]).unwrap();
+    std::fs::write(&stored[0], &whole[..whole.len() / 2]).unwrap();
+    assert_eq!(run(scenario, cache, &[]), uncached);
+    assert_eq!(
+        std::fs::read(&stored[0]).unwrap(),
+        whole,
+        "rebuilt and rewritten"
+    );
+}
+
+fn head(world: &str) -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    format!(
+        "world = {:?}\nrobot = {:?}\n",
+        root.join(world).display().to_string(),
+        root.join("robots/urdf/pioneer3dx.urdf")
+            .display()
+            .to_string()
+    )
+}
+
+#[test]
+fn an_mcl_run_reads_its_likelihood_field_from_the_cache() {
+    let dir = tmpdir("disk-cache-mcl");
+    let scenario = dir.join("mcl.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "name = \"cached_mcl\"\n{}seed = 3\nduration_s = 8.0\n\
+             [start]\npose = [2.0, 20.0, 0.0]\n\
+             [route]\nwaypoints = [[10.0, 20.0]]\n\
+             [initial_belief]\nmode = \"tracking\"\nsigma = [0.1, 0.1, 0.05]\n\
+             [[localizers]]\nname = \"mcl\"\nkind = \"mcl\"\n\
+             min_particles = 200\nmax_particles = 500\n",
+            head("worlds/campus.toml")
+        ),
+    )
+    .unwrap();
+    same_results_through_the_cache(&scenario, &dir.join("cache"), "likelihood_field");
     std::fs::remove_dir_all(&dir).unwrap();
 }

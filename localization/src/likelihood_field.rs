@@ -197,9 +197,64 @@ impl LikelihoodField {
         grid: &OccupancyGrid,
         params: LikelihoodFieldParams,
     ) -> Result<Self, LocalizationError> {
+        // Checked before the transform, which costs far more than the checks.
         params
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
+        let dist = distance_transform(grid, params.max_dist)?;
+        Self::from_distances(grid, dist, params)
+    }
+
+    /// The field of `grid` from its distances as [`distance_transform`]`(grid,
+    /// params.max_dist)` computed them (kept from an earlier build: the transform is the
+    /// expensive part); the table is rebuilt. Distances of the wrong count, or outside
+    /// `[0, max_dist]`, are refused.
+    pub fn from_distances(
+        grid: &OccupancyGrid,
+        dist: Vec<f64>,
+        params: LikelihoodFieldParams,
+    ) -> Result<Self, LocalizationError> {
+        let mut lf = Self::assemble(grid, dist, Vec::new(), params)?;
+        lf.log_p = vec![0.0; lf.dist.len()];
+        lf.fill_table();
+        Ok(lf)
+    }
+
+    /// The field of `grid` from the distances and the table ([`LikelihoodField::distances`],
+    /// [`LikelihoodField::log_table`]) of a field built before with `params` (kept on disk:
+    /// the table's logarithms cost about as much as the transform). Refused as
+    /// [`LikelihoodField::from_distances`] refuses, and for a table of another count or with
+    /// a value that is not finite.
+    pub fn from_tables(
+        grid: &OccupancyGrid,
+        dist: Vec<f64>,
+        log_p: Vec<f32>,
+        params: LikelihoodFieldParams,
+    ) -> Result<Self, LocalizationError> {
+        if log_p.len() != dist.len() || log_p.iter().any(|v| !v.is_finite()) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "likelihood field: a table of {} values for {} distances, or a value not finite",
+                log_p.len(),
+                dist.len()
+            )));
+        }
+        let mut lf = Self::assemble(grid, dist, log_p, params)?;
+        lf.log_floor = (params.z_rand / params.range_max).ln();
+        Ok(lf)
+    }
+
+    /// The field with `log_p` as given (the caller fills it and `log_floor`), after checking
+    /// the parameters, the grid and the distances.
+    fn assemble(
+        grid: &OccupancyGrid,
+        dist: Vec<f64>,
+        log_p: Vec<f32>,
+        params: LikelihoodFieldParams,
+    ) -> Result<Self, LocalizationError> {
+        params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        validate_grid(grid)?;
         // The lookup converts cell coordinates through i32.
         for (field, cells) in [("width", grid.width), ("height", grid.height)] {
             if cells > i32::MAX as usize {
@@ -210,20 +265,33 @@ impl LikelihoodField {
                 return Err(LocalizationError::grid(field, reason));
             }
         }
-        let dist = distance_transform(grid, params.max_dist)?;
-        let mut lf = Self {
+        if dist.len() != grid.cells.len() {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "likelihood field: {} distances for a grid of {} cells",
+                dist.len(),
+                grid.cells.len()
+            )));
+        }
+        if let Some(k) = dist
+            .iter()
+            .position(|d| !(*d >= 0.0 && *d <= params.max_dist))
+        {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "likelihood field: distance {} of cell {k} is outside [0, max_dist = {}]",
+                dist[k], params.max_dist
+            )));
+        }
+        Ok(Self {
             origin: grid.origin,
             resolution: grid.resolution,
             inv_resolution: 1.0 / grid.resolution,
             width: grid.width,
             height: grid.height,
-            log_p: vec![0.0; dist.len()],
+            log_p,
             dist,
             params,
             log_floor: 0.0,
-        };
-        lf.fill_table();
-        Ok(lf)
+        })
     }
 
     fn fill_table(&mut self) {
@@ -254,6 +322,16 @@ impl LikelihoodField {
             self.params.range_max = range_max;
             self.fill_table();
         }
+    }
+
+    /// The capped distance of every cell, row-major like the grid.
+    pub fn distances(&self) -> &[f64] {
+        &self.dist
+    }
+
+    /// The log-likelihood of every cell (for the current range_max), row-major like the grid.
+    pub fn log_table(&self) -> &[f32] {
+        &self.log_p
     }
 
     pub fn params(&self) -> &LikelihoodFieldParams {

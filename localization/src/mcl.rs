@@ -368,6 +368,24 @@ impl MclMap {
         params: &MclParams,
         range_max: f64,
     ) -> Result<MclMap, LocalizationError> {
+        Self::with_field(grid, params, range_max, LikelihoodField::new)
+    }
+
+    /// As [`MclMap::new`], with the likelihood field made by `field`, called with the grid it
+    /// is for (resampled if need be) and its parameters: a caller that kept the field of an
+    /// earlier build (an on-disk cache) makes it from the kept parts
+    /// ([`LikelihoodField::from_tables`]) instead of computing it; it must be what
+    /// [`LikelihoodField::new`] makes. A field of another frame, size or parameters is
+    /// refused.
+    pub fn with_field(
+        grid: &OccupancyGrid,
+        params: &MclParams,
+        range_max: f64,
+        field: impl FnOnce(
+            &OccupancyGrid,
+            LikelihoodFieldParams,
+        ) -> Result<LikelihoodField, LocalizationError>,
+    ) -> Result<MclMap, LocalizationError> {
         params
             .validate()
             .map_err(LocalizationError::InvalidParameter)?;
@@ -387,16 +405,27 @@ impl MclMap {
             } else {
                 grid
             };
-        let field = LikelihoodField::new(
-            grid,
-            LikelihoodFieldParams {
-                z_hit: params.z_hit,
-                z_rand: params.z_rand,
-                sigma_hit: params.sigma_hit,
-                max_dist: params.max_dist,
-                range_max,
-            },
-        )?;
+        let field_params = LikelihoodFieldParams {
+            z_hit: params.z_hit,
+            z_rand: params.z_rand,
+            sigma_hit: params.sigma_hit,
+            max_dist: params.max_dist,
+            range_max,
+        };
+        field_params
+            .validate()
+            .map_err(LocalizationError::InvalidParameter)?;
+        let field = field(grid, field_params)?;
+        let fits = field.origin() == grid.origin
+            && field.resolution() == grid.resolution
+            && field.size() == (grid.width, grid.height)
+            && *field.params() == field_params;
+        if !fits {
+            return Err(LocalizationError::InvalidParameter(
+                "the likelihood field given for the MclMap is of another grid or parameters"
+                    .to_owned(),
+            ));
+        }
         let free_cells: Vec<u32> = grid
             .cells
             .iter()
@@ -413,6 +442,11 @@ impl MclMap {
             height: grid.height,
             built_for: field_key(params),
         })
+    }
+
+    /// The likelihood field (its distances, parameters and table).
+    pub fn field(&self) -> &LikelihoodField {
+        &self.field
     }
 }
 

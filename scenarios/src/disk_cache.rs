@@ -1,7 +1,8 @@
 //! On-disk cache of what is expensive to derive from a world and a training run (the WiFi
-//! graph learnt from a survey run, a chooser's training runs), so a later process with the
-//! same inputs starts at once. It sits under the in-process memos (`map_cache`, the survey
-//! and training memos): those are asked first, this second, the build last.
+//! graph learnt from a survey run, a chooser's training runs, MCL's likelihood fields in
+//! `maps`), so a later process with the same inputs starts at once. It sits under the
+//! in-process memos (`map_cache`, the survey and training memos): those are asked first, this
+//! second, the build last.
 //!
 //! **Key.** The caller gives the full text of every input (the texts of the scenario, world,
 //! robot and sensor files, and of every file a localizer names, recursively: see
@@ -172,9 +173,19 @@ impl DiskCache {
 
     /// The payload stored under `kind` and `key`, if a whole, matching entry is there.
     pub fn get(&self, kind: &str, key: &[u8]) -> Option<Vec<u8>> {
+        self.decode_stored(kind, key, |p| Some(p.to_vec()))
+    }
+
+    /// `decode` of the payload stored under `kind` and `key`, read in place (a likelihood
+    /// field's entry is tens of megabytes: no copy of it is made).
+    fn decode_stored<T>(
+        &self,
+        kind: &str,
+        key: &[u8],
+        decode: impl FnOnce(&[u8]) -> Option<T>,
+    ) -> Option<T> {
         let bytes = std::fs::read(self.entry_path(kind, key)).ok()?;
-        let full = Self::full_key(kind, key);
-        decode_entry(&bytes, &full).map(<[u8]>::to_vec)
+        decode(decode_entry(&bytes, &Self::full_key(kind, key))?)
     }
 
     /// Stores `payload` under `kind` and `key` (temporary file, fsync, rename).
@@ -223,7 +234,7 @@ impl DiskCache {
         encode: impl FnOnce(&T) -> Vec<u8>,
         decode: impl FnOnce(&[u8]) -> Option<T>,
     ) -> Result<T, E> {
-        if let Some(v) = self.get(kind, key).and_then(|p| decode(&p)) {
+        if let Some(v) = self.decode_stored(kind, key, decode) {
             return Ok(v);
         }
         let v = build()?;
@@ -292,6 +303,12 @@ impl Writer {
             self.f64(*x);
         }
     }
+    pub fn f32s(&mut self, v: &[f32]) {
+        self.u64(v.len() as u64);
+        for x in v {
+            self.0.extend_from_slice(&x.to_bits().to_le_bytes());
+        }
+    }
     pub fn str(&mut self, s: &str) {
         self.bytes(s.as_bytes());
     }
@@ -336,7 +353,22 @@ impl<'a> Reader<'a> {
     }
     pub fn f64s(&mut self) -> Option<Vec<f64>> {
         let n = self.len(8)?;
-        (0..n).map(|_| self.f64()).collect()
+        // Whole words from one slice: no length check per value (fields run to millions).
+        let words = self.take(n.checked_mul(8)?)?.chunks_exact(8);
+        Some(
+            words
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+                .collect(),
+        )
+    }
+    pub fn f32s(&mut self) -> Option<Vec<f32>> {
+        let n = self.len(4)?;
+        let words = self.take(n.checked_mul(4)?)?.chunks_exact(4);
+        Some(
+            words
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap_or([0; 4])))
+                .collect(),
+        )
     }
     pub fn bytes(&mut self) -> Option<&'a [u8]> {
         let n = self.len(1)?;
