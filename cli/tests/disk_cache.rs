@@ -1,8 +1,8 @@
 //! The on-disk cache (`atrium_scenarios::disk_cache`) end to end: a run that builds the WiFi
-//! graph (an MCL likelihood field) and stores it, a run that reads it back, and a run
-//! with `--no-cache` give the same results; a corrupt entry is rebuilt. Each test uses its own
-//! cache folder (`ATRIUM_CACHE_DIR` set on the child process only), so no test depends on the
-//! cache's state.
+//! graph (an MCL likelihood field, an appearance model) and stores it, a run that reads it
+//! back, and a run with `--no-cache` give the same results; a corrupt entry is rebuilt. Each
+//! test uses its own cache folder (`ATRIUM_CACHE_DIR` set on the child process only), so no
+//! test depends on the cache's state.
 
 #[allow(dead_code)]
 mod common;
@@ -177,5 +177,28 @@ fn an_mcl_run_reads_its_likelihood_field_from_the_cache() {
     )
     .unwrap();
     same_results_through_the_cache(&scenario, &dir.join("cache"), "likelihood_field");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_appearance_run_reads_its_model_from_the_cache() {
+    let dir = tmpdir("disk-cache-apf");
+    let scenario = dir.join("apf.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "name = \"cached_apf\"\n{}seed = 3\nduration_s = 6.0\n\
+             [start]\npose = [2.6, 2.2, 0.0]\n\
+             [route]\nwaypoints = [[4.0, 2.4]]\n\
+             [sensors.stereo]\nkind = \"stereo\"\nwidth = 48\nheight = 36\n\
+             max_disparity = 10\nwindow_radius = 2\nrate_hz = 2.0\n\
+             [[localizers]]\nname = \"apf\"\nkind = \"appearance\"\n\
+             training = {{ area = [2.5, 2.0, 4.5, 3.0], step = 0.5, rotation_step_deg = 45.0 }}\n\
+             d = 10\npca_samples = 40\nparticles = 300\n",
+            head("worlds/lab.toml")
+        ),
+    )
+    .unwrap();
+    same_results_through_the_cache(&scenario, &dir.join("cache"), "appearance_model");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -72,6 +72,11 @@ impl AppearanceMap {
         self.d
     }
 
+    /// Every training point's features, row-major (N × d).
+    pub fn features(&self) -> &[f64] {
+        &self.features
+    }
+
     pub fn pose(&self, i: usize) -> Pose2 {
         self.poses[i]
     }

@@ -67,7 +67,7 @@ impl Default for AppearanceTraining {
 }
 
 /// Intensity features: PCA (000 eq. 1) and the training map of projected images.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct IntensityFeatures {
     pub pca: Pca,
     pub map: AppearanceMap,
@@ -76,7 +76,7 @@ pub struct IntensityFeatures {
 }
 
 /// Disparity features: EM-PCA with missing values (000 §V) and the training map.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct DisparityFeatures {
     pub em: EmPca,
     pub map: AppearanceMap,
@@ -86,7 +86,7 @@ pub struct DisparityFeatures {
 
 /// An appearance map: training poses with the features of their intensity images and,
 /// optionally, of their sparse disparity maps.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct AppearanceModel {
     pub intensity: IntensityFeatures,
     pub disparity: Option<DisparityFeatures>,
@@ -214,6 +214,55 @@ impl AppearanceModel {
                 width,
                 height,
             },
+            disparity,
+        })
+    }
+
+    /// A model from its parts (kept from an earlier [`AppearanceModel::train`]), refused
+    /// unless they fit together: each subspace of `width × height` pixels with as many
+    /// components as its map has features, and one disparity entry per training pose.
+    pub fn from_parts(
+        intensity: IntensityFeatures,
+        disparity: Option<DisparityFeatures>,
+    ) -> Result<AppearanceModel, LocalizationError> {
+        let check = |what: &str, dim: usize, d: usize, map: &AppearanceMap, w: usize, h: usize| {
+            if w.checked_mul(h) != Some(dim) || d != map.d() {
+                return Err(LocalizationError::InvalidParameter(format!(
+                    "appearance model: {what} features of {dim} pixels and {d} components do \
+                     not fit {w} × {h} images and a map of {} features",
+                    map.d()
+                )));
+            }
+            Ok(())
+        };
+        let i = &intensity;
+        check(
+            "intensity",
+            i.pca.dim(),
+            i.pca.d(),
+            &i.map,
+            i.width,
+            i.height,
+        )?;
+        if let Some(dp) = &disparity {
+            check(
+                "disparity",
+                dp.em.dim(),
+                dp.em.d(),
+                &dp.map,
+                dp.width,
+                dp.height,
+            )?;
+            if dp.map.len() != i.map.len() {
+                return Err(LocalizationError::InvalidParameter(format!(
+                    "appearance model: {} disparity entries for {} training poses",
+                    dp.map.len(),
+                    i.map.len()
+                )));
+            }
+        }
+        Ok(AppearanceModel {
+            intensity,
             disparity,
         })
     }

@@ -248,6 +248,54 @@ impl EmPca {
         })
     }
 
+    /// A fitted model from its parts (kept from an earlier [`EmPca::fit`]); C Cᵀ is
+    /// recomputed exactly as the fit computes it. Refused unless `c` is d × D with `mean` of
+    /// D (both at least 1), the mean and C are finite, σ² is finite and > 0, and the missing
+    /// fraction lies in [0, 1].
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_parts(
+        mean: DVector<f64>,
+        c: DMatrix<f64>,
+        sigma2: f64,
+        iterations: usize,
+        converged: bool,
+        psi: Vec<f64>,
+        missing_fraction: f64,
+    ) -> Result<EmPca, LocalizationError> {
+        let (d, dim) = c.shape();
+        if d == 0 || dim == 0 || mean.len() != dim {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "em-pca: C of {d} × {dim} and a mean of {} do not fit (d × D and D, d and D >= 1)",
+                mean.len()
+            )));
+        }
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !(finite(mean.as_slice()) && finite(c.as_slice())) {
+            return Err(LocalizationError::InvalidParameter(
+                "em-pca: a mean or C entry is not finite".into(),
+            ));
+        }
+        if !(sigma2.is_finite() && sigma2 > 0.0 && (0.0..=1.0).contains(&missing_fraction)) {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "em-pca: sigma2 must be finite and > 0 and the missing fraction within [0, 1], \
+                 got {sigma2} and {missing_fraction}"
+            )));
+        }
+        // As `fit`: Cᵀ's Gram matrix, from Cᵀ itself so the sums run in the same order.
+        let ct = c.transpose();
+        let gram = ct.tr_mul(&ct);
+        Ok(EmPca {
+            mean,
+            c,
+            sigma2,
+            iterations,
+            converged,
+            psi,
+            missing_fraction,
+            gram,
+        })
+    }
+
     pub fn dim(&self) -> usize {
         self.mean.len()
     }
@@ -500,6 +548,60 @@ mod tests {
                 (y[k] - want[k]).abs() < 1e-9 * (1.0 + want[k].abs()),
                 "{y:?} {want}"
             );
+        }
+    }
+
+    #[test]
+    fn from_parts_gives_the_fitted_model_and_refuses_misfits() {
+        let (_, data) = planted(200, 40, &[5.0, 4.0, 3.0], 0.3, 5);
+        let data = with_missing(&data, 0.2, 6);
+        let refs: Vec<&[f32]> = data.iter().map(|v| v.as_slice()).collect();
+        let em = EmPca::fit(&refs, 3, EmPcaParams::default()).unwrap();
+        let parts = |em: &EmPca| {
+            EmPca::from_parts(
+                em.mean.clone(),
+                em.c.clone(),
+                em.sigma2,
+                em.iterations,
+                em.converged,
+                em.psi.clone(),
+                em.missing_fraction,
+            )
+        };
+        let back = parts(&em).unwrap();
+        // C Cᵀ too, bit for bit: projections of a new map agree exactly.
+        assert_eq!(back, em);
+        let bits = |v: &DMatrix<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.gram), bits(&em.gram));
+        let mut short = em.clone();
+        short.mean = DVector::zeros(em.dim() - 1);
+        let mut nan = em.clone();
+        nan.c[(0, 0)] = f64::NAN;
+        let mut zero = em.clone();
+        zero.sigma2 = 0.0;
+        let mut fraction = em.clone();
+        fraction.missing_fraction = 1.5;
+        for bad in [short, nan, zero, fraction] {
+            assert!(parts(&bad).is_err());
+        }
+    }
+
+    #[test]
+    fn pca_from_parts_gives_the_fitted_subspace_and_refuses_misfits() {
+        let (_, data) = planted(200, 40, &[5.0, 4.0, 3.0], 0.3, 5);
+        let refs: Vec<&[f32]> = data.iter().map(|v| v.as_slice()).collect();
+        let pca = Pca::fit(&refs, 3, PcaMethod::Snapshot).unwrap();
+        let parts =
+            |p: &Pca| Pca::from_parts(p.mean.clone(), p.components.clone(), p.eigenvalues.clone());
+        assert_eq!(parts(&pca).unwrap(), pca);
+        let mut short = pca.clone();
+        short.eigenvalues = DVector::zeros(2);
+        let mut wide = pca.clone();
+        wide.mean = DVector::zeros(pca.dim() + 1);
+        let mut inf = pca.clone();
+        inf.mean[3] = f64::INFINITY;
+        for bad in [short, wide, inf] {
+            assert!(parts(&bad).is_err());
         }
     }
 

@@ -113,6 +113,38 @@ impl Pca {
         })
     }
 
+    /// A subspace from its parts (kept from an earlier [`Pca::fit`]), refused unless the
+    /// shapes agree (`components` d × D, `mean` D, `eigenvalues` d) and every value is finite.
+    pub fn from_parts(
+        mean: DVector<f64>,
+        components: DMatrix<f64>,
+        eigenvalues: DVector<f64>,
+    ) -> Result<Pca, LocalizationError> {
+        let (d, dim) = components.shape();
+        if d == 0 || dim == 0 || mean.len() != dim || eigenvalues.len() != d {
+            return Err(LocalizationError::InvalidParameter(format!(
+                "pca: components of {d} × {dim}, a mean of {} and {} eigenvalues do not fit \
+                 (d × D, D and d, d and D >= 1)",
+                mean.len(),
+                eigenvalues.len()
+            )));
+        }
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !(finite(mean.as_slice())
+            && finite(components.as_slice())
+            && finite(eigenvalues.as_slice()))
+        {
+            return Err(LocalizationError::InvalidParameter(
+                "pca: a mean, component or eigenvalue is not finite".into(),
+            ));
+        }
+        Ok(Pca {
+            mean,
+            components,
+            eigenvalues,
+        })
+    }
+
     pub fn dim(&self) -> usize {
         self.mean.len()
     }

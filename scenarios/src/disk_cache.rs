@@ -1,8 +1,8 @@
 //! On-disk cache of what is expensive to derive from a world and a training run (the WiFi
 //! graph learnt from a survey run, a chooser's training runs, MCL's likelihood fields in
-//! `maps`), so a later process with the same inputs starts at once. It sits under the
-//! in-process memos (`map_cache`, the survey and training memos): those are asked first, this
-//! second, the build last.
+//! `maps`, appearance models), so a later process with the same inputs starts at once. It
+//! sits under the in-process memos (`map_cache`, the survey and training memos): those are
+//! asked first, this second, the build last.
 //!
 //! **Key.** The caller gives the full text of every input (the texts of the scenario, world,
 //! robot and sensor files, and of every file a localizer names, recursively: see
@@ -395,6 +395,23 @@ pub fn scenario_inputs(scenario: &Scenario) -> Vec<u8> {
     let mut seen = BTreeSet::new();
     add_scenario(scenario, &mut out, &mut seen);
     out
+}
+
+/// Key text of the world a scenario runs in and what it carries: the texts of its files but
+/// the scenario file (world, robot, sensor file) and the parsed world (a generated world's
+/// parameters included), robot and WiFi scanner. Maps trained by rendering the world key on
+/// this and their own parameters, so editing another part of the scenario still hits.
+pub fn world_inputs(scenario: &Scenario) -> Vec<u8> {
+    let mut out = Vec::new();
+    for f in scenario.input_files.iter().filter(|f| **f != scenario.file) {
+        add_file(f, &mut out);
+    }
+    let mut w = Writer(out);
+    w.str(&serde_json::to_string(&scenario.world).unwrap_or_default());
+    w.str(&format!("{:?}", scenario.robot));
+    w.str(&format!("{:?}", scenario.wifi));
+    w.str(&format!("{:?}", scenario.world_params));
+    w.0
 }
 
 fn add_file(path: &Path, out: &mut Vec<u8>) {
