@@ -103,6 +103,15 @@ pub struct MclParams {
     /// are weighed by the likelihood alone, not divided by how densely the matcher gathers
     /// them: each local optimum stands for a hypothesis. Default 0: uniform particles.
     pub global_samples: usize,
+    /// With recovery (alpha_slow, alpha_fast): draw the particles Augmented MCL injects from
+    /// the current scan instead of uniformly. At an update that injects, this many poses are
+    /// drawn uniformly over the map's free space, the best hundredth by truncated endpoint
+    /// cost is refined by scan matching as `global_samples` does, and each injected particle
+    /// takes one of them: sensor resetting, the dual proposal of [Thrun 2001]. A uniform
+    /// particle almost never lands in the decimetre and degree a sharp field rewards, so after
+    /// a kidnapping recovery waits for luck (measured on `kidnapped`, NOTES.md). Default 0:
+    /// uniform injection.
+    pub inject_from_scan: usize,
     /// Likelihood field only: beam skipping, as ROS amcl's `do_beamskip` [amcl]. A beam
     /// whose endpoint lies within this distance (metres) of a wall for fewer than
     /// `beam_skip_threshold` of the particles is left out of the update: where nearly every
@@ -155,6 +164,7 @@ impl Default for MclParams {
             lambda_short: 0.1,
             resample_ess: 0.0,
             global_samples: 0,
+            inject_from_scan: 0,
             beam_skip_distance: 0.0,
             beam_skip_threshold: 0.3,
             beam_skip_error_threshold: 0.9,
@@ -218,6 +228,12 @@ impl MclParams {
         check_count(
             "global_samples",
             self.global_samples,
+            MAX_GLOBAL_PARTICLES,
+            "MAX_GLOBAL_PARTICLES",
+        )?;
+        check_count(
+            "inject_from_scan",
+            self.inject_from_scan,
             MAX_GLOBAL_PARTICLES,
             "MAX_GLOBAL_PARTICLES",
         )?;
@@ -325,6 +341,8 @@ pub struct Mcl {
     /// The belief's free cells while the first scan has yet to seed a global belief (see
     /// `global_samples`).
     seed_from_scan: Option<Arc<Vec<u32>>>,
+    /// The field on 0.1 m cells, built at the first draw from a scan.
+    coarse: Option<Arc<CoarseDistance>>,
     w_slow: f64,
     w_fast: f64,
     /// Sensing mismatch (004 §4.2) per beam, on its own time-based averages (w_slow and
@@ -501,6 +519,7 @@ impl Mcl {
             grid_width: map.width,
             updated_once: false,
             seed_from_scan: None,
+            coarse: None,
             w_slow: 0.0,
             w_fast: 0.0,
             fit: Default::default(),
@@ -606,37 +625,48 @@ impl Mcl {
     }
 
     /// Replaces the particles by max_particles poses drawn from `scan` (see
-    /// `global_samples`): global_samples uniform poses over `cells`, the max_particles whose
-    /// endpoints have the least truncated cost kept, each refined by scan matching. False,
-    /// leaving the particles alone, for a scan without a valid beam.
+    /// `global_samples`). False, leaving the particles alone, for a scan without a valid beam.
     fn seed_global_from_scan(&mut self, scan: &LaserScan, cells: &[u32]) -> bool {
         let mut endpoints = Beams::with_capacity(self.params.max_beams);
         if endpoints.select_endpoints(scan, self.params.max_beams) == 0 {
             return false;
         }
-        let params = ScanMatchParams::default();
-        let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
-        let (field, bx, by) = (&*self.field, &endpoints.x, &endpoints.y);
-        // Ranked on 0.1 m cells (see CoarseDistance), refined on the field's own.
-        let coarse = CoarseDistance::new(field, (0.1 / res).round().max(1.0) as usize);
-        let rng = &mut self.core.rng;
-        let mut candidates: Vec<(f64, Pose2)> = (0..self.params.global_samples)
-            .map(|_| {
-                let p = random_pose(cells, origin, res, width, rng);
-                (coarse.truncated_cost(bx, by, &p, params.truncation), p)
-            })
-            .collect();
-        let keep = self.params.max_particles.min(candidates.len());
-        if keep < candidates.len() {
-            candidates.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));
-            candidates.truncate(keep);
+        let coarse = self.coarse_distance();
+        let draw = PoseDraw {
+            cells,
+            origin: self.grid_origin,
+            resolution: self.grid_resolution,
+            width: self.grid_width,
+        };
+        let poses = scan_matched_poses(
+            &self.field,
+            &coarse,
+            &endpoints,
+            &draw,
+            self.params.global_samples,
+            self.params.max_particles,
+            &mut self.core.rng,
+        );
+        for (i, q) in poses.iter().enumerate() {
+            self.core.set.set_pose(i, *q);
         }
-        for (i, (_, p)) in candidates.into_iter().enumerate() {
-            let q = refine(field, bx, by, p, &params).0;
-            self.core.set.set_pose(i, q);
-        }
-        self.core.set.make_uniform(keep);
+        self.core.set.make_uniform(poses.len());
         true
+    }
+
+    /// The field on 0.1 m cells, for ranking poses drawn from a scan (see
+    /// [`CoarseDistance`]); built once and shared by copies of the filter.
+    fn coarse_distance(&mut self) -> Arc<CoarseDistance> {
+        let res = self.grid_resolution;
+        let field = &self.field;
+        self.coarse
+            .get_or_insert_with(|| {
+                Arc::new(CoarseDistance::new(
+                    field,
+                    (0.1 / res).round().max(1.0) as usize,
+                ))
+            })
+            .clone()
     }
 
     /// The sensor model's log-likelihood of `scan` at each of `poses` of the robot, with the
@@ -698,26 +728,93 @@ impl Mcl {
         }
         self.core.refresh_estimate(self.params.estimate);
         if self.params.resample_policy().due(self.core.set.ess(), n) {
-            self.resample();
+            self.resample(scan);
         }
     }
 
     /// KLD-sized low-variance resampling with random injection (see
-    /// [`ParticleSet::resample_kld`]).
-    fn resample(&mut self) {
+    /// [`ParticleSet::resample_kld`]), injected poses uniform or drawn from `scan` (see
+    /// `inject_from_scan`).
+    fn resample(&mut self, scan: &LaserScan) {
         let p_inj = if self.free_cells.is_empty() {
             0.0
         } else {
             self.injection_probability()
         };
-        let (origin, res, width) = (self.grid_origin, self.grid_resolution, self.grid_width);
-        let cells = &self.free_cells;
+        let mut endpoints = Beams::with_capacity(0);
+        let from_scan = self.params.inject_from_scan > 0
+            && p_inj > 0.0
+            && endpoints.select_endpoints(scan, self.params.max_beams) > 0;
+        let coarse = from_scan.then(|| self.coarse_distance());
+        let draw = PoseDraw {
+            cells: &self.free_cells,
+            origin: self.grid_origin,
+            resolution: self.grid_resolution,
+            width: self.grid_width,
+        };
+        let (field, samples) = (&*self.field, self.params.inject_from_scan);
+        // Matched only when the first particle is injected: most updates inject none.
+        let mut matched: Vec<Pose2> = Vec::new();
         self.core
             .set
             .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
-                random_pose(cells, origin, res, width, rng)
+                let Some(coarse) = &coarse else {
+                    return draw.random(rng);
+                };
+                if matched.is_empty() {
+                    let keep = (samples / 100).max(1);
+                    matched =
+                        scan_matched_poses(field, coarse, &endpoints, &draw, samples, keep, rng);
+                }
+                matched[rng.random_range(0..matched.len())]
             });
     }
+}
+
+/// Uniform poses over the given cells of a grid (see [`random_pose`]).
+struct PoseDraw<'a> {
+    cells: &'a [u32],
+    origin: [f64; 2],
+    resolution: f64,
+    width: usize,
+}
+
+impl PoseDraw<'_> {
+    fn random<R: Rng + ?Sized>(&self, rng: &mut R) -> Pose2 {
+        random_pose(self.cells, self.origin, self.resolution, self.width, rng)
+    }
+}
+
+/// Poses drawn from a scan (`endpoints`, in the robot frame): `samples` uniform poses, the
+/// `keep` whose endpoints have the least truncated cost on `coarse`, each refined by scan
+/// matching on `field`. What `global_samples` seeds a belief with and `inject_from_scan`
+/// injects ([Thrun 2001]'s dual proposal).
+fn scan_matched_poses<R: Rng + ?Sized>(
+    field: &LikelihoodField,
+    coarse: &CoarseDistance,
+    endpoints: &Beams,
+    draw: &PoseDraw,
+    samples: usize,
+    keep: usize,
+    rng: &mut R,
+) -> Vec<Pose2> {
+    let params = ScanMatchParams::default();
+    let (bx, by) = (&endpoints.x, &endpoints.y);
+    let mut candidates: Vec<(f64, Pose2)> = (0..samples)
+        .map(|_| {
+            let p = draw.random(rng);
+            (coarse.truncated_cost(bx, by, &p, params.truncation), p)
+        })
+        .collect();
+    let keep = keep.min(candidates.len());
+    if keep < candidates.len() {
+        candidates.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));
+        candidates.truncate(keep);
+    }
+    candidates
+        .into_iter()
+        .map(|(_, p)| refine(field, bx, by, p, &params).0)
+        .collect()
 }
 
 /// Whether the field's table must be rebuilt for scans of `range_max` (the same test as

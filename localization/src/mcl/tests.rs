@@ -882,3 +882,62 @@ fn sizes_above_their_limits_are_refused_before_anything_is_built() {
         "{e}"
     );
 }
+
+/// After a kidnapping (the robot carried 5 m while tracking, odometry unaware), Augmented
+/// MCL injects particles; uniform ones almost never land in the sharp field's basin, while
+/// particles drawn from the scan (`inject_from_scan`) do, and the filter recovers.
+#[test]
+fn injecting_from_the_scan_recovers_from_a_kidnapping() {
+    let grid = asymmetric_room();
+    let before = route(Pose2::new(1.0, 1.0, 0.0), &[[4.0, 1.0]]);
+    let after = route(Pose2::new(6.0, 2.5, 2.0), &[[2.0, 3.0], [2.0, 6.5]]);
+    let uniform = MclParams {
+        sigma_hit: 0.05,
+        min_particles: 500,
+        max_particles: 5000,
+        alpha_slow: 0.001,
+        alpha_fast: 0.1,
+        ..MclParams::default()
+    };
+    let from_scan = MclParams {
+        inject_from_scan: 20_000,
+        ..uniform.clone()
+    };
+    let start = InitialBelief::Tracking {
+        pose: before[0],
+        sigma: [0.05, 0.05, 0.02],
+    };
+    let (mut scan_steps, mut uniform_steps) = (Vec::new(), Vec::new());
+    for seed in 0..8 {
+        let run = |params: &MclParams| {
+            let mut mcl = Mcl::new("mcl", params.clone(), &grid, start.clone(), seed).unwrap();
+            let tracked = drive(&mut mcl, &grid, &before, 500 + seed);
+            assert!(
+                tracked.iter().all(|e| *e < 0.1),
+                "tracks before: {tracked:?}"
+            );
+            drive(&mut mcl, &grid, &after[..60], 600 + seed)
+        };
+        let (s, u) = (run(&from_scan), run(&uniform));
+        // The step from which the error stays below 0.1 m (60: never).
+        let recovered = |e: &[f64]| e.iter().rposition(|e| *e >= 0.1).map_or(0, |k| k + 1);
+        let (rs, ru) = (recovered(&s), recovered(&u));
+        eprintln!("seed {seed}: recovered at step {rs} from the scan, {ru} uniform");
+        scan_steps.push(rs);
+        uniform_steps.push(ru);
+    }
+    let total = |v: &[usize]| v.iter().sum::<usize>();
+    let faster = scan_steps
+        .iter()
+        .zip(&uniform_steps)
+        .filter(|(s, u)| s < u)
+        .count();
+    assert!(
+        scan_steps.iter().all(|s| *s < 10),
+        "from the scan: {scan_steps:?}"
+    );
+    assert!(
+        faster >= 7 && 2 * total(&scan_steps) < total(&uniform_steps),
+        "from the scan {scan_steps:?}, uniform {uniform_steps:?}"
+    );
+}
