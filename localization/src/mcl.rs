@@ -103,14 +103,15 @@ pub struct MclParams {
     /// are weighed by the likelihood alone, not divided by how densely the matcher gathers
     /// them: each local optimum stands for a hypothesis. Default 0: uniform particles.
     pub global_samples: usize,
-    /// With recovery (alpha_slow, alpha_fast): draw the particles Augmented MCL injects from
-    /// the current scan instead of uniformly. At an update that injects, this many poses are
-    /// drawn uniformly over the map's free space, the best hundredth by truncated endpoint
-    /// cost is refined by scan matching as `global_samples` does, and each injected particle
-    /// takes one of them: sensor resetting, the dual proposal of [Thrun 2001]. A uniform
-    /// particle almost never lands in the decimetre and degree a sharp field rewards, so after
-    /// a kidnapping recovery waits for luck (measured on `kidnapped`, NOTES.md). Default 0:
-    /// uniform injection.
+    /// With recovery (alpha_slow, alpha_fast): draw half of the particles Augmented MCL
+    /// injects from the current scan, the other half uniformly. At an update that injects,
+    /// this many poses are drawn uniformly over the map's free space, the best hundredth by
+    /// truncated endpoint cost is refined by scan matching as `global_samples` does, and each
+    /// scan-drawn particle takes one of them: sensor resetting, the dual proposal of
+    /// [Thrun 2001]. A uniform particle almost never lands in the decimetre and degree a sharp
+    /// field rewards, so after a kidnapping recovery waits for luck; the uniform half covers
+    /// a scan that matches look-alike places better than the true one (measured on
+    /// `kidnapped`, NOTES.md). Default 0: uniform injection only.
     pub inject_from_scan: usize,
     /// Likelihood field only: beam skipping, as ROS amcl's `do_beamskip` [amcl]. A beam
     /// whose endpoint lies within this distance (metres) of a wall for fewer than
@@ -758,7 +759,9 @@ impl Mcl {
         self.core
             .set
             .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
-                let Some(coarse) = &coarse else {
+                // Half stay uniform: where the scan is aliased (a corridor like others) the
+                // matched poses may all sit in the look-alikes.
+                let Some(coarse) = coarse.as_ref().filter(|_| rng.random::<bool>()) else {
                     return draw.random(rng);
                 };
                 if matched.is_empty() {
