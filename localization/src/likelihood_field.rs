@@ -6,6 +6,65 @@
 use crate::error::LocalizationError;
 use atrium_worlds::{Cell, OccupancyGrid};
 
+mod avx2;
+
+/// Poses as columns, with their headings' sines and cosines: computed once for all the beams
+/// of a scan.
+#[derive(Debug, Clone, Copy)]
+pub struct Poses<'a> {
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub sin: &'a [f64],
+    pub cos: &'a [f64],
+}
+
+impl<'a> Poses<'a> {
+    /// The first `n` poses (all four columns cut to `n`: panics if one is shorter).
+    pub fn first(self, n: usize) -> Poses<'a> {
+        Poses {
+            x: &self.x[..n],
+            y: &self.y[..n],
+            sin: &self.sin[..n],
+            cos: &self.cos[..n],
+        }
+    }
+}
+
+/// The sines and cosines of headings, kept between scans so that filling them allocates
+/// nothing once the columns have grown.
+#[derive(Debug, Clone, Default)]
+pub struct Headings {
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+}
+
+impl Headings {
+    /// Room for `n` headings: no allocation until there are more.
+    pub fn with_capacity(n: usize) -> Headings {
+        Headings {
+            sin: Vec::with_capacity(n),
+            cos: Vec::with_capacity(n),
+        }
+    }
+
+    /// The poses (`x`, `y`, `th`) with the sines and cosines of `th`.
+    pub fn poses<'a>(&'a mut self, x: &'a [f64], y: &'a [f64], th: &[f64]) -> Poses<'a> {
+        self.sin.clear();
+        self.cos.clear();
+        for t in th {
+            let (s, c) = t.sin_cos();
+            self.sin.push(s);
+            self.cos.push(c);
+        }
+        Poses {
+            x,
+            y,
+            sin: &self.sin,
+            cos: &self.cos,
+        }
+    }
+}
+
 /// Squared distance standing in for "no occupied cell on this line". Finite so that the
 /// parabola intersections of the 1-D transform never compute ∞ − ∞.
 const FAR: f64 = 1e20;
@@ -190,6 +249,9 @@ pub struct LikelihoodField {
     log_p: Vec<f32>,
     params: LikelihoodFieldParams,
     log_floor: f64,
+    /// Rows of poses go through the AVX2 kernel (the processor has it, and every cell index
+    /// fits in i32).
+    avx2: bool,
 }
 
 impl LikelihoodField {
@@ -291,6 +353,7 @@ impl LikelihoodField {
             dist,
             params,
             log_floor: 0.0,
+            avx2: avx2::available() && grid.cells.len() <= i32::MAX as usize,
         })
     }
 
@@ -432,63 +495,47 @@ impl LikelihoodField {
     }
 
     /// The summed [`LikelihoodField::log_likelihood`] of the beam endpoints (`bx`, `by`, in
-    /// the robot frame) seen from every pose (`x`, `y`, `th`), into `out`. The same sum, in
-    /// the same order, as calling `log_likelihood` beam by beam for each pose (so bit-identical
-    /// to it); four poses go through the beams together so that their four sums are
-    /// independent chains the processor can overlap.
-    pub fn scan_log_likelihoods(
-        &self,
-        bx: &[f64],
-        by: &[f64],
-        x: &[f64],
-        y: &[f64],
-        th: &[f64],
-        out: &mut [f64],
-    ) {
-        let n = out.len();
-        let (x, y, th) = (&x[..n], &y[..n], &th[..n]);
-        let by = &by[..bx.len()];
-        let quads = n / 4 * 4;
-        for p0 in (0..quads).step_by(4) {
-            let px: [f64; 4] = std::array::from_fn(|k| x[p0 + k]);
-            let py: [f64; 4] = std::array::from_fn(|k| y[p0 + k]);
-            let sc: [(f64, f64); 4] = std::array::from_fn(|k| th[p0 + k].sin_cos());
-            let mut l = [0.0f64; 4];
-            for (&u, &v) in bx.iter().zip(by) {
-                for k in 0..4 {
-                    let (s, c) = sc[k];
-                    l[k] += self.log_likelihood(px[k] + c * u - s * v, py[k] + s * u + c * v);
-                }
-            }
-            out[p0..p0 + 4].copy_from_slice(&l);
-        }
-        for i in quads..n {
-            let (s, c) = th[i].sin_cos();
-            let mut l = 0.0;
-            for (&u, &v) in bx.iter().zip(by) {
-                l += self.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
-            }
-            out[i] = l;
+    /// the robot frame) seen from every pose, into `out`. The same sum, in the same order, as
+    /// calling `log_likelihood` beam by beam for each pose (so bit-identical to it). Beam
+    /// after beam over all the poses: one beam's endpoints fall in a few rows of the table,
+    /// which stay in cache while the poses go through them.
+    pub fn scan_log_likelihoods(&self, bx: &[f64], by: &[f64], poses: Poses<'_>, out: &mut [f64]) {
+        out.fill(0.0);
+        for (&u, &v) in bx.iter().zip(&by[..bx.len()]) {
+            self.beam_row::<true>((u, v), poses, out);
         }
     }
 
     /// One beam's [`LikelihoodField::log_likelihood`] seen from every pose: the endpoint
-    /// (`u`, `v`, in the robot frame) from pose i at (`x[i]`, `y[i]`) with heading sine and
-    /// cosine `sin_cos[i]`, into `out[i]`. Summing a pose's values over the beams in order
-    /// gives [`LikelihoodField::scan_log_likelihoods`] bit for bit.
-    pub fn beam_log_likelihoods(
-        &self,
-        (u, v): (f64, f64),
-        x: &[f64],
-        y: &[f64],
-        sin_cos: &[(f64, f64)],
-        out: &mut [f64],
-    ) {
+    /// (`u`, `v`, in the robot frame) from pose i, into `out[i]`. Summing a pose's values
+    /// over the beams in order gives [`LikelihoodField::scan_log_likelihoods`] bit for bit.
+    pub fn beam_log_likelihoods(&self, (u, v): (f64, f64), poses: Poses<'_>, out: &mut [f64]) {
+        self.beam_row::<false>((u, v), poses, out);
+    }
+
+    /// `out[i]` set to (or, with `ADD`, increased by) the beam's value from pose i. Four
+    /// poses at a time with AVX2 where the processor has it: the same operations in the same
+    /// order lane by lane, so the values are those of the plain loop bit for bit, on any
+    /// machine.
+    #[inline]
+    fn beam_row<const ADD: bool>(&self, (u, v): (f64, f64), poses: Poses<'_>, out: &mut [f64]) {
         let n = out.len();
-        let (x, y, sin_cos) = (&x[..n], &y[..n], &sin_cos[..n]);
-        for i in 0..n {
-            let (s, c) = sin_cos[i];
-            out[i] = self.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
+        let poses = poses.first(n);
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the processor has AVX2 and the table's cell
+            // indices fit in i32 (see `assemble`), and `poses` holds `n` of each column.
+            done = unsafe { avx2::beam_row::<ADD>(self, (u, v), poses, out) };
+        }
+        for (i, o) in out.iter_mut().enumerate().skip(done) {
+            let (s, c) = (poses.sin[i], poses.cos[i]);
+            let l = self.log_likelihood(poses.x[i] + c * u - s * v, poses.y[i] + s * u + c * v);
+            if ADD {
+                *o += l;
+            } else {
+                *o = l;
+            }
         }
     }
 
@@ -605,12 +652,13 @@ pub(crate) mod tests {
         let y = [0.3, 0.2, 0.55, 0.4, 0.15, 0.6, 0.38];
         let th = [0.0, 1.0, -2.0, 0.5, 3.0, -0.7, 2.2];
         let mut sums = [0.0; 7];
-        f.scan_log_likelihoods(&bx, &by, &x, &y, &th, &mut sums);
-        let sin_cos: Vec<(f64, f64)> = th.iter().map(|t| t.sin_cos()).collect();
+        let mut headings = Headings::default();
+        let poses = headings.poses(&x, &y, &th);
+        f.scan_log_likelihoods(&bx, &by, poses, &mut sums);
         let mut total = [0.0; 7];
         let mut row = [0.0; 7];
         for (&u, &v) in bx.iter().zip(&by) {
-            f.beam_log_likelihoods((u, v), &x, &y, &sin_cos, &mut row);
+            f.beam_log_likelihoods((u, v), poses, &mut row);
             for (t, l) in total.iter_mut().zip(&row) {
                 *t += l;
             }
@@ -619,6 +667,35 @@ pub(crate) mod tests {
         // The curve at distance 0 is the table at a wall's surface cell.
         assert!((f.log_likelihood_at_distance(0.0) - f.log_nearest(0.525, 0.275)).abs() < 1e-6);
         assert!(sums.iter().any(|l| *l > 5.0 * f.log_floor()), "{sums:?}");
+    }
+
+    #[test]
+    fn rows_of_poses_give_the_pointwise_lookup_bit_for_bit() {
+        // Poses near the edges put some endpoints off the table's interior, so that groups
+        // of four mix interpolated and floor values; one heading is NaN.
+        let mut g = grid(60, 40, &[(10, 5), (11, 5), (30, 20), (45, 33), (0, 0)]);
+        (g.origin, g.resolution) = ([-0.4, 0.3], 0.05);
+        let f = LikelihoodField::new(&g, tight_params()).unwrap();
+        let n = 103;
+        let x: Vec<f64> = (0..n).map(|i| -0.5 + 0.033 * i as f64).collect();
+        let y: Vec<f64> = (0..n).map(|i| 0.2 + 0.021 * ((i * 7) % n) as f64).collect();
+        let mut th: Vec<f64> = (0..n).map(|i| 0.37 * i as f64).collect();
+        th[50] = f64::NAN;
+        let mut headings = Headings::default();
+        let poses = headings.poses(&x, &y, &th);
+        let mut row = vec![0.0; n];
+        for (u, v) in [(0.3, 0.1), (-0.2, 0.25), (1.5, -0.3), (0.0, 0.0)] {
+            f.beam_log_likelihoods((u, v), poses, &mut row);
+            for i in 0..n {
+                let (s, c) = th[i].sin_cos();
+                let l = f.log_likelihood(x[i] + c * u - s * v, y[i] + s * u + c * v);
+                assert_eq!(row[i].to_bits(), l.to_bits(), "pose {i}, beam ({u}, {v})");
+            }
+        }
+        assert!(
+            row.iter().any(|l| *l == f.log_floor()),
+            "no endpoint off the table"
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
-use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
+use crate::likelihood_field::{validate_grid, Headings, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
     check_count, check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
 };
@@ -331,7 +331,7 @@ pub struct Mcl {
     kld: KldSampling,
     /// Selected beam endpoints in the robot base frame.
     beams: Beams,
-    /// Beam skipping's scratch (empty without it).
+    /// The sensor update's scratch.
     beam_scratch: BeamScratch,
     /// Free cells of the field grid, for random injection.
     free_cells: Arc<Vec<u32>>,
@@ -513,7 +513,10 @@ impl Mcl {
                 params.kld_bin,
             ),
             beams: Beams::with_capacity(params.max_beams),
-            beam_scratch: BeamScratch::default(),
+            beam_scratch: BeamScratch {
+                row: Vec::with_capacity(capacity),
+                headings: Headings::with_capacity(capacity),
+            },
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
             grid_resolution: map.resolution,
@@ -881,12 +884,12 @@ impl Beams {
     }
 }
 
-/// Beam skipping's buffers, kept between updates: one beam's log-likelihoods from every
-/// particle, and the particles' headings' sines and cosines.
+/// The sensor update's buffers, kept between updates: the particles' headings' sines and
+/// cosines, and (for beam skipping) one beam's log-likelihoods from every particle.
 #[derive(Debug, Clone, Default)]
 struct BeamScratch {
     row: Vec<f64>,
-    sin_cos: Vec<(f64, f64)>,
+    headings: Headings,
 }
 
 /// The laser model of one scan: the selected beams and the map they are weighed on.
@@ -933,16 +936,15 @@ impl<'a> ScanModel<'a> {
                 // the sums when enough particles explain the beam, in beam order as the plain
                 // sum adds them.
                 let n = x.len();
-                let BeamScratch { row, sin_cos } = scratch;
+                let BeamScratch { row, headings } = scratch;
                 row.resize(n, 0.0);
-                sin_cos.clear();
-                sin_cos.extend(th.iter().map(|t| t.sin_cos()));
+                let poses = headings.poses(x, y, th);
                 let hit = field.log_likelihood_at_distance(p.beam_skip_distance);
                 let min_explained = p.beam_skip_threshold * n as f64;
                 out.fill(0.0);
                 let mut n_kept = 0;
                 for (&u, &v) in bx.iter().zip(by) {
-                    field.beam_log_likelihoods((u, v), x, y, sin_cos, row);
+                    field.beam_log_likelihoods((u, v), poses, row);
                     let explained = row.iter().filter(|l| **l >= hit).count();
                     if explained as f64 >= min_explained {
                         n_kept += 1;
@@ -954,14 +956,15 @@ impl<'a> ScanModel<'a> {
                 let skipped = (bx.len() - n_kept) as f64;
                 if skipped > p.beam_skip_error_threshold * bx.len() as f64 {
                     // Most beams unexplained: the cloud is lost, not the beams cluttered.
-                    field.scan_log_likelihoods(bx, by, x, y, th, out);
+                    field.scan_log_likelihoods(bx, by, poses, out);
                     bx.len()
                 } else {
                     n_kept
                 }
             }
             SensorModel::LikelihoodField => {
-                field.scan_log_likelihoods(bx, by, x, y, th, out);
+                let poses = scratch.headings.poses(x, y, th);
+                field.scan_log_likelihoods(bx, by, poses, out);
                 bx.len()
             }
             SensorModel::Beam => {
