@@ -57,7 +57,7 @@ impl CeilingMap {
                 format!("need at least 2 × 2 nodes, got {nx} × {ny}"),
             ));
         }
-        if values.len() != nx * ny {
+        if Some(values.len()) != nx.checked_mul(ny) {
             return Err(bad(
                 "values",
                 format!("{} values for {nx} × {ny} nodes", values.len()),
@@ -123,6 +123,28 @@ impl CeilingMap {
             .map(|(s, &c)| if c > 0 { s / c as f64 } else { f64::NAN })
             .collect();
         CeilingMap::new(origin, step, nx, ny, values)
+    }
+
+    /// Position of node (0, 0).
+    pub fn origin(&self) -> [f64; 2] {
+        self.origin
+    }
+
+    /// Node spacing, m.
+    pub fn step(&self) -> f64 {
+        self.step
+    }
+
+    /// Grid nodes along x and y.
+    pub fn nodes(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Every node's brightness, `values()[j * nx + i]` (NaN: no training data); with
+    /// [`CeilingMap::origin`], [`CeilingMap::step`] and [`CeilingMap::nodes`] what
+    /// [`CeilingMap::new`] takes back.
+    pub fn values(&self) -> &[f64] {
+        &self.values
     }
 
     /// (x0, y0, x1, y1) of the node grid.
@@ -444,6 +466,17 @@ mod tests {
                 .to_string()
                 .contains("reading 0")
         );
+    }
+
+    #[test]
+    fn a_map_comes_back_from_its_parts() {
+        let m = map();
+        let (nx, ny) = m.nodes();
+        let back = CeilingMap::new(m.origin(), m.step(), nx, ny, m.values().to_vec()).unwrap();
+        assert_eq!(back, m);
+        // A node count past usize is refused, not wrapped onto the values' length.
+        let e = CeilingMap::new([0.0, 0.0], 1.0, usize::MAX / 2 + 1, 2, vec![1.0; 0]);
+        assert!(e.unwrap_err().to_string().contains("0 values for"));
     }
 
     #[test]

@@ -62,7 +62,7 @@ pub struct OmniMatch {
 }
 
 /// Panoramas `width × height` (row-major) on a grid of nodes (x0 + i·step, y0 + j·step).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct OmniMap {
     pub width: usize,
     pub height: usize,
@@ -196,8 +196,88 @@ impl OmniMap {
         })
     }
 
+    /// A map from its parts (kept from an earlier [`OmniMap::build`]: [`OmniMap::origin`],
+    /// [`OmniMap::step`], [`OmniMap::nodes`], [`OmniMap::rotations`], [`OmniMap::pca`],
+    /// [`OmniMap::features`]), refused unless they fit together: a finite origin, a finite
+    /// step > 0, at least one node, panoramas of at least 2 × 1 pixels that the eigenimages
+    /// span (`pca.dim() == width × height`), rotations that divide the width, and one finite
+    /// feature vector of `pca.d()` per node and rotation.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_parts(
+        origin: [f64; 2],
+        step: f64,
+        nx: usize,
+        ny: usize,
+        width: usize,
+        height: usize,
+        rotations: usize,
+        pca: Pca,
+        features: Vec<f64>,
+    ) -> Result<OmniMap, LocalizationError> {
+        let bad = |r: String| LocalizationError::InvalidParameter(format!("omni map: {r}"));
+        if !(origin.iter().all(|v| v.is_finite()) && step.is_finite() && step > 0.0) {
+            return Err(bad(format!(
+                "origin must be finite and step finite and > 0, got {origin:?}, {step}"
+            )));
+        }
+        if nx == 0 || ny == 0 || width < 2 || height == 0 {
+            return Err(bad(format!(
+                "need at least 1 × 1 nodes and 2 × 1 pixels, got {nx} × {ny} nodes of \
+                 {width} × {height}"
+            )));
+        }
+        if rotations == 0 || !width.is_multiple_of(rotations) {
+            return Err(bad(format!(
+                "rotations ({rotations}) must be >= 1 and divide the panorama width ({width})"
+            )));
+        }
+        if width.checked_mul(height) != Some(pca.dim()) || pca.d() == 0 {
+            return Err(bad(format!(
+                "eigenimages of {} pixels ({} of them) do not fit {width} × {height} panoramas",
+                pca.dim(),
+                pca.d()
+            )));
+        }
+        let expected = nx
+            .checked_mul(ny)
+            .and_then(|n| n.checked_mul(rotations))
+            .and_then(|n| n.checked_mul(pca.d()));
+        if expected != Some(features.len()) {
+            return Err(bad(format!(
+                "{} features for {nx} × {ny} nodes × {rotations} rotations × d = {}",
+                features.len(),
+                pca.d()
+            )));
+        }
+        if features.iter().any(|v| !v.is_finite()) {
+            return Err(bad("a feature is not finite".into()));
+        }
+        Ok(OmniMap {
+            width,
+            height,
+            origin,
+            step,
+            nx,
+            ny,
+            rotations,
+            pca,
+            features,
+        })
+    }
+
     pub fn d(&self) -> usize {
         self.pca.d()
+    }
+
+    /// Position of node (0, 0).
+    pub fn origin(&self) -> [f64; 2] {
+        self.origin
+    }
+
+    /// Every node's features at every rotation: node (i, j) at rotation r is
+    /// `features()[((j * nx + i) * R + r) * d ..][..d]`.
+    pub fn features(&self) -> &[f64] {
+        &self.features
     }
 
     pub fn rotations(&self) -> usize {
@@ -464,6 +544,50 @@ pub(crate) mod tests {
         let far = m.energy_at(&y, &Pose2::new(2.75, 1.75, 1.0)).unwrap();
         assert!(near < far, "{near} {far}");
         assert!(m.energy_at(&y, &Pose2::new(-1.0, 0.0, 0.0)).is_none());
+    }
+
+    #[test]
+    fn from_parts_gives_the_built_map_and_refuses_misfits() {
+        let m = map();
+        let (nx, ny) = m.nodes();
+        let parts = |m: &OmniMap| {
+            OmniMap::from_parts(
+                m.origin(),
+                m.step(),
+                m.nodes().0,
+                m.nodes().1,
+                m.width,
+                m.height,
+                m.rotations(),
+                m.pca().clone(),
+                m.features().to_vec(),
+            )
+        };
+        let back = parts(&m).unwrap();
+        assert_eq!(back, m);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(back.features()), bits(m.features()));
+        let img = panorama(1.3, 0.8, 0.4, 32, 4);
+        assert_eq!(back.lookup(&img).unwrap(), m.lookup(&img).unwrap());
+        let mut short = m.clone();
+        short.features.pop();
+        let mut nan = m.clone();
+        nan.features[5] = f64::NAN;
+        let mut wide = m.clone();
+        wide.width = 64;
+        let mut rot = m.clone();
+        rot.rotations = 5;
+        let mut step = m.clone();
+        step.step = 0.0;
+        let mut grid = m.clone();
+        grid.nx = nx + 1;
+        for bad in [short, nan, wide, rot, step, grid] {
+            assert!(
+                parts(&bad).is_err(),
+                "{:?}",
+                (bad.nx, ny, bad.width, bad.rotations)
+            );
+        }
     }
 
     #[test]
