@@ -4,6 +4,11 @@ use serde::{Deserialize, Serialize};
 
 /// Wraps an angle into (-π, π].
 pub fn normalize_angle(a: f64) -> f64 {
+    // Most angles are already in range, and for them the remainder below is `a` itself,
+    // bit for bit (|a| < 2π); skipping it saves a library call per particle and step.
+    if a > -std::f64::consts::PI && a <= std::f64::consts::PI {
+        return a;
+    }
     let two_pi = std::f64::consts::TAU;
     let mut r = a % two_pi;
     if r <= -std::f64::consts::PI {
@@ -82,6 +87,27 @@ mod tests {
         assert!((normalize_angle(-PI) - PI).abs() < 1e-12);
         assert!((normalize_angle(0.5) - 0.5).abs() < 1e-12);
         assert!((normalize_angle(-2.0 * PI - 0.25) + 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn angles_in_range_come_back_as_the_remainder_gives_them() {
+        // The in-range shortcut must not change a bit: the remainder of |a| < 2π is a.
+        let edge = [PI, -PI, 0.0, -0.0, f64::MIN_POSITIVE, 3.0, -3.0];
+        let near = edge.iter().flat_map(|a| {
+            let b = a.to_bits();
+            [f64::from_bits(b.wrapping_sub(1)), f64::from_bits(b + 1)]
+        });
+        let spread = (0..2000).map(|k| -3.2 + 6.4 * k as f64 / 1999.0);
+        for a in edge.into_iter().chain(near).chain(spread) {
+            let mut r = a % std::f64::consts::TAU;
+            if r <= -PI {
+                r += std::f64::consts::TAU;
+            } else if r > PI {
+                r -= std::f64::consts::TAU;
+            }
+            assert_eq!(normalize_angle(a).to_bits(), r.to_bits(), "{a}");
+        }
+        assert!(normalize_angle(f64::NAN).is_nan());
     }
 
     #[test]
