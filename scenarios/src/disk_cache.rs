@@ -1,8 +1,8 @@
 //! On-disk cache of what is expensive to derive from a world and a training run (the WiFi
 //! graph learnt from a survey run, a chooser's training runs, MCL's likelihood fields in
-//! `maps`, appearance models), so a later process with the same inputs starts at once. It
-//! sits under the in-process memos (`map_cache`, the survey and training memos): those are
-//! asked first, this second, the build last.
+//! `maps`, appearance models, omnicam and ceiling-brightness maps), so a later process with
+//! the same inputs starts at once. It sits under the in-process memos (`map_cache`, the
+//! survey and training memos): those are asked first, this second, the build last.
 //!
 //! **Key.** The caller gives the full text of every input (the texts of the scenario, world,
 //! robot and sensor files, and of every file a localizer names, recursively: see

@@ -157,13 +157,15 @@ fn cached_model(
     )
 }
 
-fn write_matrix(w: &mut Writer, m: &DMatrix<f64>) {
+/// A matrix's shape and column-major entries (also the omnicam map's eigenimages, `camera.rs`).
+pub(super) fn write_matrix(w: &mut Writer, m: &DMatrix<f64>) {
     w.u64(m.nrows() as u64);
     w.u64(m.ncols() as u64);
     w.f64s(m.as_slice());
 }
 
-fn read_matrix(r: &mut Reader) -> Option<DMatrix<f64>> {
+/// A matrix stored by [`write_matrix`]; `None` unless its entries fill its shape.
+pub(super) fn read_matrix(r: &mut Reader) -> Option<DMatrix<f64>> {
     let rows = usize::try_from(r.u64()?).ok()?;
     let cols = usize::try_from(r.u64()?).ok()?;
     let data = r.f64s()?;
