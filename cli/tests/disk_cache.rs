@@ -1,8 +1,8 @@
 //! The on-disk cache (`atrium_scenarios::disk_cache`) end to end: a run that builds the WiFi
-//! graph (an MCL likelihood field, an appearance model) and stores it, a run that reads it
-//! back, and a run with `--no-cache` give the same results; a corrupt entry is rebuilt. Each
-//! test uses its own cache folder (`ATRIUM_CACHE_DIR` set on the child process only), so no
-//! test depends on the cache's state.
+//! graph (an MCL likelihood field, an appearance model, an omnicam or ceiling map) and stores
+//! it, a run that reads it back, and a run with `--no-cache` give the same results; a corrupt
+//! entry is rebuilt. Each test uses its own cache folder (`ATRIUM_CACHE_DIR` set on the child
+//! process only), so no test depends on the cache's state.
 
 #[allow(dead_code)]
 mod common;
@@ -200,5 +200,26 @@ fn an_appearance_run_reads_its_model_from_the_cache() {
     )
     .unwrap();
     same_results_through_the_cache(&scenario, &dir.join("cache"), "appearance_model");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The bundled scenario `name` (each of these runs in under a second in release).
+fn bundled(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenarios")
+        .join(format!("{name}.toml"))
+}
+
+#[test]
+fn an_omni_run_reads_its_map_from_the_cache() {
+    let dir = tmpdir("disk-cache-omni");
+    same_results_through_the_cache(&bundled("omni_lab"), &dir.join("cache"), "omni_map");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_ceiling_run_reads_its_map_from_the_cache() {
+    let dir = tmpdir("disk-cache-ceiling");
+    same_results_through_the_cache(&bundled("ceiling_mcl"), &dir.join("cache"), "ceiling_map");
     std::fs::remove_dir_all(&dir).unwrap();
 }
