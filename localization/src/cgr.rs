@@ -31,7 +31,7 @@ use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use crate::initial_belief::check_gaussian;
-use crate::line_map::LineMap;
+use crate::line_map::{Correspondence, LineMap};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particle_filter::{FilterCore, ParticleFilter};
@@ -199,8 +199,29 @@ const NO_CORRESPONDENCE: f64 = -1.0;
 /// log-likelihood, one per point, are taken from here only for the poses that the acceptance
 /// test compares (q⁰ and qʳ), not for the intermediate refinement iterates. Summed in point
 /// order with the operations the single pass used, the result is bit for bit the same.
+/// `matched` is the evaluation's scratch: the points with a segment, in point order.
 #[derive(Debug, Clone, Default)]
-struct Terms(Vec<f64>);
+struct Terms {
+    g: Vec<f64>,
+    matched: Vec<Matched>,
+}
+
+impl Terms {
+    fn with_capacity(n: usize) -> Terms {
+        Terms {
+            g: Vec::with_capacity(n),
+            matched: Vec::with_capacity(n),
+        }
+    }
+}
+
+/// An observed point with a corresponding segment, at the evaluated pose.
+#[derive(Debug, Clone, Copy)]
+struct Matched {
+    /// Index of the point in the observation.
+    point: usize,
+    corr: Correspondence,
+}
 
 /// A CGR particle filter on a vector map.
 #[derive(Debug, Clone)]
@@ -285,7 +306,7 @@ impl Cgr {
             source,
             obs: Vec::with_capacity(params.max_points),
             obs_normals: Vec::with_capacity(params.max_points),
-            terms: Terms(Vec::with_capacity(params.max_points)),
+            terms: Terms::with_capacity(params.max_points),
             accepted: 0,
             offered: 0,
             fit: FitTracker::default(),
@@ -352,9 +373,16 @@ impl Cgr {
         };
         let with_normals = self.obs_normals.len() == self.obs.len();
         let lines = self.map.lines();
-        let terms = &mut terms.0;
-        terms.clear();
-        let mut e = Eval::default();
+        let Terms {
+            g: factors,
+            matched,
+        } = terms;
+        factors.clear();
+        matched.clear();
+        // Three passes over the points, each with no chain from one point to the next but
+        // the sums of the last: the processor overlaps the points' lookups, divisions and
+        // library calls, where one pass per point waited for each in turn (the work and its
+        // order per value are unchanged, so the results are too, bit for bit).
         for (i, q) in self.obs.iter().enumerate() {
             let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
             let constraint = if with_normals {
@@ -363,14 +391,24 @@ impl Cgr {
             } else {
                 None
             };
-            let Some(corr) = self.map.correspondence(p, constraint) else {
-                terms.push(NO_CORRESPONDENCE);
-                continue;
-            };
+            match self.map.correspondence(p, constraint) {
+                Some(corr) => {
+                    factors.push(0.0);
+                    matched.push(Matched { point: i, corr });
+                }
+                None => factors.push(NO_CORRESPONDENCE),
+            }
+        }
+        for m in matched.iter() {
+            let d = m.corr.distance;
+            factors[m.point] = (-0.5 * d * d / sigma2).exp();
+        }
+        let mut e = Eval::default();
+        for m in matched.iter() {
+            let q = self.obs[m.point];
+            let g = factors[m.point];
             // Residual vector from the closest point of the segment to p, and its length.
-            let (r, d) = (corr.residual, corr.distance);
-            let g = (-0.5 * d * d / sigma2).exp();
-            terms.push(g);
+            let (r, d) = (m.corr.residual, m.corr.distance);
             // d/dpose of ½d²: r·∂p; the mixture weights it by g / (g + ε_out).
             let omega = g / (g + eps_out) / sigma2;
             let dp_dth = [-s * q[0] - c * q[1], c * q[0] - s * q[1]];
@@ -380,7 +418,7 @@ impl Cgr {
             let u = if d > 1e-9 {
                 [r[0] / d, r[1] / d]
             } else {
-                lines[corr.line].normal
+                lines[m.corr.line].normal
             };
             let j_th = u[0] * dp_dth[0] + u[1] * dp_dth[1];
             e.hdiag[0] += omega * u[0] * u[0];
@@ -403,7 +441,7 @@ impl Cgr {
         let norm = (1.0 + eps_out).ln();
         let outlier = eps_out.ln() - norm;
         let mut loglik = 0.0;
-        for &g in &terms.0 {
+        for &g in &terms.g {
             if g == NO_CORRESPONDENCE {
                 loglik += outlier;
             } else {
