@@ -5,6 +5,7 @@
 pub mod appearance;
 pub mod appearance_filters;
 pub mod camera;
+mod camera_maps;
 pub mod cgr;
 pub mod chooser;
 pub mod landmark;
