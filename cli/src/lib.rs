@@ -56,8 +56,9 @@ enum Command {
         min_pass: Option<usize>,
         #[arg(long)]
         json: bool,
-        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
-        /// (also `ATRIUM_NO_CACHE=1`).
+        /// Do not read or write the on-disk cache of what runs learn from a world (WiFi
+        /// graphs, likelihood fields, appearance, omnicam and ceiling maps, chooser
+        /// training) (also `ATRIUM_NO_CACHE=1`).
         #[arg(long)]
         no_cache: bool,
     },
@@ -83,8 +84,9 @@ enum Command {
         /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
-        /// (also `ATRIUM_NO_CACHE=1`).
+        /// Do not read or write the on-disk cache of what runs learn from a world (WiFi
+        /// graphs, likelihood fields, appearance, omnicam and ceiling maps, chooser
+        /// training) (also `ATRIUM_NO_CACHE=1`).
         #[arg(long)]
         no_cache: bool,
     },
@@ -117,8 +119,9 @@ enum Command {
         /// Print one JSON document (the run's report plus the recording's size).
         #[arg(long)]
         json: bool,
-        /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs
-        /// (also `ATRIUM_NO_CACHE=1`).
+        /// Do not read or write the on-disk cache of what runs learn from a world (WiFi
+        /// graphs, likelihood fields, appearance, omnicam and ceiling maps, chooser
+        /// training) (also `ATRIUM_NO_CACHE=1`).
         #[arg(long)]
         no_cache: bool,
     },
@@ -171,7 +174,7 @@ enum Command {
         /// empca: fraction of entries missing at random (default 0.2).
         #[arg(long = "missing")]
         empca_missing: Option<f64>,
-        /// Let the on-disk cache serve learnt WiFi graphs and training runs (default: every
+        /// Let the on-disk cache serve what runs learn from a world (default: every
         /// run builds them, and startup is timed without the cache's help).
         #[arg(long, conflicts_with = "no_cache")]
         with_cache: bool,
@@ -201,7 +204,8 @@ struct SweepArgs {
     /// Output folder (default: sweep-<sweep file stem>).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Do not read or write the on-disk cache of learnt WiFi graphs and training runs (also
+    /// Do not read or write the on-disk cache of what runs learn from a world (WiFi graphs,
+    /// likelihood fields, appearance, omnicam and ceiling maps, chooser training) (also
     /// `ATRIUM_NO_CACHE=1`).
     #[arg(long)]
     no_cache: bool,
