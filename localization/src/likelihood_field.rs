@@ -8,6 +8,11 @@ use atrium_worlds::{Cell, OccupancyGrid};
 
 mod avx2;
 
+/// Whether this processor runs the crate's AVX2 kernels.
+pub(crate) fn avx2_available() -> bool {
+    avx2::available()
+}
+
 /// Poses as columns, with their headings' sines and cosines: computed once for all the beams
 /// of a scan.
 #[derive(Debug, Clone, Copy)]

@@ -806,12 +806,10 @@ fn scan_matched_poses<R: Rng + ?Sized>(
 ) -> Vec<Pose2> {
     let params = ScanMatchParams::default();
     let (bx, by) = (&endpoints.x, &endpoints.y);
-    let mut candidates: Vec<(f64, Pose2)> = (0..samples)
-        .map(|_| {
-            let p = draw.random(rng);
-            (coarse.truncated_cost(bx, by, &p, params.truncation), p)
-        })
-        .collect();
+    let poses: Vec<Pose2> = (0..samples).map(|_| draw.random(rng)).collect();
+    let mut costs = vec![0.0; samples];
+    coarse.truncated_costs(bx, by, &poses, params.truncation, &mut costs);
+    let mut candidates: Vec<(f64, Pose2)> = costs.into_iter().zip(poses).collect();
     let keep = keep.min(candidates.len());
     if keep < candidates.len() {
         candidates.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));

@@ -9,6 +9,8 @@
 use crate::likelihood_field::LikelihoodField;
 use atrium_robots::{normalize_angle, Pose2};
 
+mod avx2;
+
 /// How a pose is refined.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanMatchParams {
@@ -67,6 +69,9 @@ pub struct CoarseDistance {
     width: usize,
     height: usize,
     dist: Vec<f32>,
+    /// Groups of poses go through the AVX2 kernel (the processor has it, and every cell
+    /// index fits in i32).
+    avx2: bool,
 }
 
 impl CoarseDistance {
@@ -92,6 +97,7 @@ impl CoarseDistance {
             inv_resolution: 1.0 / res,
             width,
             height,
+            avx2: crate::likelihood_field::avx2_available() && dist.len() <= i32::MAX as usize,
             dist,
         }
     }
@@ -105,6 +111,30 @@ impl CoarseDistance {
             Some(self.dist[fy as usize * self.width + fx as usize] as f64)
         } else {
             None
+        }
+    }
+
+    /// [`CoarseDistance::truncated_cost`] of every pose of `poses` into `out` (as long),
+    /// bit for bit; four poses at a time with AVX2 where the processor has it.
+    pub fn truncated_costs(
+        &self,
+        bx: &[f64],
+        by: &[f64],
+        poses: &[Pose2],
+        truncation: f64,
+        out: &mut [f64],
+    ) {
+        let out = &mut out[..poses.len()];
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the processor has AVX2 and the cell indices
+            // fit in i32 (see `new`), and `out` is as long as `poses`.
+            done =
+                unsafe { avx2::truncated_costs(self, bx, by, poses, truncation * truncation, out) };
+        }
+        for (o, p) in out.iter_mut().zip(poses).skip(done) {
+            *o = self.truncated_cost(bx, by, p, truncation);
         }
     }
 
@@ -327,6 +357,29 @@ mod tests {
         assert!(c < fine + 72.0 * 0.075 * 0.075, "{c} vs {fine}");
         let off = Pose2::new(2.5, 1.2, 0.9);
         assert!(coarse.truncated_cost(&bx, &by, &off, 0.5) > 10.0 * c);
+    }
+
+    #[test]
+    fn costs_of_many_poses_are_the_single_pose_costs_bit_for_bit() {
+        // Poses inside, at the edges (some endpoints off the map) and far off it, one with a
+        // NaN heading; 23 poses, so that groups of four leave a remainder.
+        let field = room();
+        let coarse = CoarseDistance::new(&field, 5);
+        let (bx, by) = scan(&field, Pose2::new(2.0, 1.5, 0.3));
+        let mut poses: Vec<Pose2> = (0..22)
+            .map(|k| {
+                let t = k as f64;
+                Pose2::new(-0.5 + 0.31 * t, 4.2 - 0.23 * t, 0.7 * t - 3.0)
+            })
+            .collect();
+        poses.push(Pose2::new(1.0, 1.0, f64::NAN));
+        let mut out = vec![0.0; poses.len()];
+        coarse.truncated_costs(&bx, &by, &poses, 0.5, &mut out);
+        for (p, c) in poses.iter().zip(&out) {
+            let one = coarse.truncated_cost(&bx, &by, p, 0.5);
+            assert_eq!(c.to_bits(), one.to_bits(), "{p:?}");
+        }
+        assert!(out.iter().any(|c| *c < 72.0 * 0.25) && out.contains(&(72.0 * 0.25)));
     }
 
     #[test]
