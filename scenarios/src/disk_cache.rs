@@ -397,6 +397,15 @@ pub fn scenario_inputs(scenario: &Scenario) -> Vec<u8> {
     out
 }
 
+/// The key of an entry learnt from a scenario's world: `label` (the kind and its version),
+/// the caller's in-process key, and [`world_inputs`]; not the scenario's own text, so a run
+/// with another route, seed or filter parameter reuses the entry.
+pub fn world_derived_key(label: &str, memory_key: &str, scenario: &Scenario) -> Vec<u8> {
+    let mut key = format!("{label}\n{memory_key}\n").into_bytes();
+    key.extend(world_inputs(scenario));
+    key
+}
+
 /// Key text of the world a scenario runs in and what it carries: the texts of its files but
 /// the scenario file (world, robot, sensor file) and the parsed world (a generated world's
 /// parameters included), robot and WiFi scanner. Maps trained by rendering the world key on

@@ -94,17 +94,10 @@ impl ModelInputs {
         )
     }
 
-    /// The disk cache's key: the in-process key and the world's, robot's and sensor file's
-    /// texts (`disk_cache::world_inputs`); not the scenario's text, so a run with other
-    /// filter parameters, route or seed reuses the model.
+    /// The disk cache's key ([`crate::disk_cache::world_derived_key`]).
     fn disk_key(&self, scenario: &Scenario) -> Vec<u8> {
-        let mut key = format!(
-            "appearance model {MODEL_VERSION}\n{}\n",
-            self.memory_key(scenario)
-        )
-        .into_bytes();
-        key.extend(crate::disk_cache::world_inputs(scenario));
-        key
+        let label = format!("appearance model {MODEL_VERSION}");
+        crate::disk_cache::world_derived_key(&label, &self.memory_key(scenario), scenario)
     }
 
     /// Renders the training images and trains the model (000 §VII).

@@ -49,17 +49,10 @@ impl CeilingInputs {
         )
     }
 
-    /// The disk cache's key: the in-process key and the world's, robot's and sensor file's
-    /// texts (`disk_cache::world_inputs`); not the scenario's text, so a run with another
-    /// route, seed or filter parameter reuses the map.
+    /// The disk cache's key ([`crate::disk_cache::world_derived_key`]).
     fn disk_key(&self, scenario: &Scenario) -> Vec<u8> {
-        let mut key = format!(
-            "ceiling map {CEILING_MAP_VERSION}\n{}\n",
-            self.memory_key(scenario)
-        )
-        .into_bytes();
-        key.extend(crate::disk_cache::world_inputs(scenario));
-        key
+        let label = format!("ceiling map {CEILING_MAP_VERSION}");
+        crate::disk_cache::world_derived_key(&label, &self.memory_key(scenario), scenario)
     }
 
     /// Renders the camera's image at every node of the grid (001, first part).
@@ -156,15 +149,10 @@ impl OmniInputs {
         )
     }
 
-    /// The disk cache's key: as [`CeilingInputs::disk_key`].
+    /// The disk cache's key ([`crate::disk_cache::world_derived_key`]).
     fn disk_key(&self, scenario: &Scenario) -> Vec<u8> {
-        let mut key = format!(
-            "omni map {OMNI_MAP_VERSION}\n{}\n",
-            self.memory_key(scenario)
-        )
-        .into_bytes();
-        key.extend(crate::disk_cache::world_inputs(scenario));
-        key
+        let label = format!("omni map {OMNI_MAP_VERSION}");
+        crate::disk_cache::world_derived_key(&label, &self.memory_key(scenario), scenario)
     }
 
     /// Renders a panorama at every node of the grid and builds the eigenimage map (001,
