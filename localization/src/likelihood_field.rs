@@ -13,6 +13,9 @@ pub(crate) fn avx2_available() -> bool {
     avx2::available()
 }
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx2::within as avx2_within;
+
 /// Poses as columns, with their headings' sines and cosines: computed once for all the beams
 /// of a scan.
 #[derive(Debug, Clone, Copy)]

@@ -45,7 +45,6 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
     );
     let inv = _mm256_set1_pd(field.inv_resolution);
     let half = _mm256_set1_pd(0.5);
-    let zero = _mm256_setzero_pd();
     let umax = _mm256_set1_pd((field.width - 1) as f64);
     let vmax = _mm256_set1_pd((field.height - 1) as f64);
     let wide = _mm_set1_epi32(w as i32);
@@ -59,17 +58,7 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
         let ey = _mm256_add_pd(_mm256_add_pd(y, _mm256_mul_pd(s, bu)), _mm256_mul_pd(c, bv));
         let fu = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(ex, ox), inv), half);
         let fv = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(ey, oy), inv), half);
-        // Ordered comparisons: NaN fails them, as in the scalar test.
-        let inside = _mm256_and_pd(
-            _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GE_OQ>(fu, zero),
-                _mm256_cmp_pd::<_CMP_GE_OQ>(fv, zero),
-            ),
-            _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_LT_OQ>(fu, umax),
-                _mm256_cmp_pd::<_CMP_LT_OQ>(fv, vmax),
-            ),
-        );
+        let inside = within(fu, fv, umax, vmax);
         let l = if _mm256_movemask_pd(inside) == 0b1111 {
             // Truncation, as `as i32` converts the in-range, non-negative values.
             let ci = _mm256_cvttpd_epi32(fu);
@@ -118,4 +107,29 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
         }
     }
     n
+}
+
+/// Lanes with 0 ≤ `u` < `umax` and 0 ≤ `v` < `vmax`, all bits set (the scalar lookups'
+/// bounds test). Ordered comparisons: NaN fails them, as in the scalar test.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn within(
+    u: std::arch::x86_64::__m256d,
+    v: std::arch::x86_64::__m256d,
+    umax: std::arch::x86_64::__m256d,
+    vmax: std::arch::x86_64::__m256d,
+) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::*;
+    let zero = _mm256_setzero_pd();
+    _mm256_and_pd(
+        _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GE_OQ>(u, zero),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(v, zero),
+        ),
+        _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_LT_OQ>(u, umax),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(v, vmax),
+        ),
+    )
 }

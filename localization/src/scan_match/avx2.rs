@@ -3,6 +3,8 @@
 //! every cost is the scalar one bit for bit.
 
 use super::CoarseDistance;
+#[cfg(target_arch = "x86_64")]
+use crate::likelihood_field::avx2_within as within;
 use atrium_robots::Pose2;
 
 /// `out[i]` = the truncated cost of the endpoints from `poses[i]`, for the poses in whole
@@ -30,7 +32,6 @@ pub(super) unsafe fn truncated_costs(
         _mm256_set1_pd(coarse.origin[1]),
     );
     let inv = _mm256_set1_pd(coarse.inv_resolution);
-    let zero = _mm256_setzero_pd();
     let wmax = _mm256_set1_pd(coarse.width as f64);
     let hmax = _mm256_set1_pd(coarse.height as f64);
     let wide = _mm_set1_epi32(coarse.width as i32);
@@ -56,17 +57,7 @@ pub(super) unsafe fn truncated_costs(
             );
             let fx = _mm256_mul_pd(_mm256_sub_pd(x, ox), inv);
             let fy = _mm256_mul_pd(_mm256_sub_pd(y, oy), inv);
-            // Ordered comparisons: NaN fails them, as in the scalar test.
-            let inside = _mm256_and_pd(
-                _mm256_and_pd(
-                    _mm256_cmp_pd::<_CMP_GE_OQ>(fx, zero),
-                    _mm256_cmp_pd::<_CMP_GE_OQ>(fy, zero),
-                ),
-                _mm256_and_pd(
-                    _mm256_cmp_pd::<_CMP_LT_OQ>(fx, wmax),
-                    _mm256_cmp_pd::<_CMP_LT_OQ>(fy, hmax),
-                ),
-            );
+            let inside = within(fx, fy, wmax, hmax);
             // Outside lanes read cell 0 and are replaced by the cap below.
             let safe_x = _mm256_and_pd(fx, inside);
             let safe_y = _mm256_and_pd(fy, inside);
