@@ -97,8 +97,10 @@ fn benches(c: &mut Criterion) {
     let reading = Reading::Laser(scan(&world, pose));
     let mut g = c.benchmark_group("cgr");
     for particles in [100usize, 150, 300] {
+        // cgr_corridor's motion model; the default's α = 0.05 spreads the cloud wider.
         let params = CgrParams {
             particles,
+            alpha: [0.02; 4],
             ..Default::default()
         };
         let mut cgr = Cgr::laser(
@@ -110,15 +112,25 @@ fn benches(c: &mut Criterion) {
             1,
         )
         .expect("valid");
+        let mut odom = Pose2::default();
+        let mut k = 0u64;
         g.throughput(Throughput::Elements(particles as u64));
         g.bench_function(format!("laser_update_{particles}_particles"), |b| {
             b.iter(|| {
+                // A back-and-forth of 5 cm (a scan's travel at 0.5 m/s and 10 Hz), so the
+                // motion model spreads the cloud every update and each sample is refined as
+                // on a drive. Standing still, the resampled copies of one pose would stop
+                // refining after their first evaluation, a quarter of a drive's work.
+                let step = if k & 1 == 0 { 0.05 } else { -0.05 };
+                k += 1;
+                let next = odom.compose(&Pose2::new(step, 0.0, 0.0));
                 cgr.predict(&OdometryDelta {
-                    stamp: 0.0,
-                    from: Pose2::default(),
-                    to: Pose2::new(0.0, 0.0, 0.0),
+                    stamp: k as f64,
+                    from: odom,
+                    to: next,
                 })
                 .unwrap();
+                odom = next;
                 cgr.update(black_box(&reading)).unwrap();
             })
         });
