@@ -11,6 +11,7 @@
 //! ray per pixel, and the lab-like rooms this serves have their lights in open view. The
 //! sensor applies a gain, Gaussian noise and 8-bit quantisation, clipped to [0, 1].
 
+use crate::frustum::{FrustumCaster, Pinhole};
 use crate::scene::{decode_tag, iso_to_pose, LaserSurface, Scene, StaticKind};
 use atrium_robots::{IntensityImage, Mount3, Pose2};
 use atrium_worlds::lighting::{LightKind, LightingCondition, Surface};
@@ -377,6 +378,8 @@ fn albedo(s: &Surface, seed: u32, p: Vector) -> f32 {
 pub struct RayBundle {
     pub dirs: Vec<Vector>,
     pub axial: Vec<f32>,
+    /// The intrinsics of a pinhole bundle, for [`render_radiance_culled`]; None for others.
+    pub pinhole: Option<Pinhole>,
 }
 
 impl RayBundle {
@@ -397,7 +400,21 @@ impl RayBundle {
                 axial.push((1.0 / n) as f32);
             }
         }
-        RayBundle { dirs, axial }
+        let min_axial = axial.iter().fold(1.0f32, |m, &c| m.min(c));
+        let pinhole = Some(Pinhole {
+            width,
+            height,
+            fx: f,
+            fy: f,
+            cx,
+            cy,
+            min_axial: f64::from(min_axial),
+        });
+        RayBundle {
+            dirs,
+            axial,
+            pinhole,
+        }
     }
 
     /// A panoramic (omnidirectional) camera: column j looks at azimuth 2π j / width
@@ -422,12 +439,17 @@ impl RayBundle {
             }
         }
         let axial = vec![1.0; dirs.len()];
-        RayBundle { dirs, axial }
+        RayBundle {
+            dirs,
+            axial,
+            pinhole: None,
+        }
     }
 }
 
 /// Renders the rays of `bundle` from the sensor pose `sensor` (world frame) into radiance
-/// (`out`, before gain and noise) and optionally axial depth (`depth`, 0 where nothing is hit).
+/// (`out`, before gain and noise) and optionally axial depth (`depth`, 0 where nothing is hit),
+/// one query-pipeline cast per ray.
 pub fn render_radiance(
     scene: &Scene,
     shader: &Shader,
@@ -437,6 +459,58 @@ pub fn render_radiance(
     out: &mut [f32],
     mut depth: Option<&mut [f32]>,
 ) {
+    with_camera_query(scene, shader, |query| {
+        for (i, d) in bundle.dirs.iter().enumerate() {
+            let dir = sensor.rotation * *d;
+            let hit =
+                query.cast_ray_and_get_normal(&Ray::new(sensor.translation, dir), max_range, true);
+            let (value, z) = shade_hit(scene, shader, sensor, dir, bundle.axial[i], hit);
+            out[i] = value;
+            if let Some(dd) = depth.as_deref_mut() {
+                dd[i] = z;
+            }
+        }
+    });
+}
+
+/// [`render_radiance`], bit for bit, with the rays of a pinhole bundle cast by `caster` on
+/// the colliders each pixel can see (`frustum.rs`): several times cheaper per frame. Other
+/// bundles (panoramas) take the per-ray path.
+#[allow(clippy::too_many_arguments)]
+pub fn render_radiance_culled(
+    scene: &Scene,
+    shader: &Shader,
+    bundle: &RayBundle,
+    caster: &mut FrustumCaster,
+    sensor: &Pose,
+    max_range: f32,
+    out: &mut [f32],
+    mut depth: Option<&mut [f32]>,
+) {
+    let Some(pin) = &bundle.pinhole else {
+        return render_radiance(scene, shader, bundle, sensor, max_range, out, depth);
+    };
+    with_camera_query(scene, shader, |query| {
+        caster.render(
+            query,
+            sensor,
+            pin,
+            &bundle.dirs,
+            max_range,
+            |i, dir, hit| {
+                let (value, z) = shade_hit(scene, shader, sensor, dir, bundle.axial[i], hit);
+                out[i] = value;
+                if let Some(dd) = depth.as_deref_mut() {
+                    dd[i] = z;
+                }
+            },
+        );
+    });
+}
+
+/// Runs `f` with the query pipeline cameras see through: the sensor collision groups, and
+/// glass left out when the shader makes it transparent.
+fn with_camera_query<R>(scene: &Scene, shader: &Shader, f: impl FnOnce(&QueryPipeline) -> R) -> R {
     let opaque = |_: ColliderHandle, co: &Collider| {
         matches!(scene.laser_surface(co.user_data), LaserSurface::Opaque)
     };
@@ -444,38 +518,38 @@ pub fn render_radiance(
     if shader.any_glass {
         filter = filter.predicate(&opaque);
     }
-    let query = scene.physics.query_pipeline_with_filter(filter);
+    f(&scene.physics.query_pipeline_with_filter(filter))
+}
+
+/// A ray's radiance and axial depth from its first hit ((0, 0) for nothing hit); `dir` is the
+/// ray's world direction, `axial` its bundle factor from distance to depth.
+#[inline]
+fn shade_hit(
+    scene: &Scene,
+    shader: &Shader,
+    sensor: &Pose,
+    dir: Vector,
+    axial: f32,
+    hit: Option<(ColliderHandle, RayIntersection)>,
+) -> (f32, f32) {
+    let Some((h, hit)) = hit else {
+        return (0.0, 0.0);
+    };
     let n_mat = shader.surfaces.len() - 2;
-    for (i, d) in bundle.dirs.iter().enumerate() {
-        let dir = sensor.rotation * *d;
-        let ray = Ray::new(sensor.translation, dir);
-        let (value, z) = match query.cast_ray_and_get_normal(&ray, max_range, true) {
-            None => (0.0, 0.0),
-            Some((h, hit)) => {
-                let p = sensor.translation + dir * hit.time_of_impact;
-                let (s, ceiling) = match decode_tag(scene.physics.colliders[h].user_data) {
-                    Some((StaticKind::Floor, _)) => (n_mat, false),
-                    Some((StaticKind::Ceiling, _)) => (n_mat + 1, true),
-                    Some((_, Some(m))) => (m, false),
-                    _ => (n_mat, false),
-                };
-                // Shade the side facing the camera.
-                let n = if hit.normal.dot(dir) > 0.0 {
-                    -hit.normal
-                } else {
-                    hit.normal
-                };
-                (
-                    shader.shade(p, n, s, ceiling),
-                    hit.time_of_impact * bundle.axial[i],
-                )
-            }
-        };
-        out[i] = value;
-        if let Some(dd) = depth.as_deref_mut() {
-            dd[i] = z;
-        }
-    }
+    let p = sensor.translation + dir * hit.time_of_impact;
+    let (s, ceiling) = match decode_tag(scene.physics.colliders[h].user_data) {
+        Some((StaticKind::Floor, _)) => (n_mat, false),
+        Some((StaticKind::Ceiling, _)) => (n_mat + 1, true),
+        Some((_, Some(m))) => (m, false),
+        _ => (n_mat, false),
+    };
+    // Shade the side facing the camera.
+    let n = if hit.normal.dot(dir) > 0.0 {
+        -hit.normal
+    } else {
+        hit.normal
+    };
+    (shader.shade(p, n, s, ceiling), hit.time_of_impact * axial)
 }
 
 /// Gain, Gaussian noise, clipping to [0, 1] and 8-bit quantisation, in place.
@@ -501,6 +575,7 @@ pub struct Camera {
     mount: Pose,
     radiance: Vec<f32>,
     depth: Vec<f32>,
+    caster: FrustumCaster,
 }
 
 impl Camera {
@@ -515,6 +590,7 @@ impl Camera {
             mount,
             radiance: vec![0.0; n],
             depth: vec![0.0; n],
+            caster: FrustumCaster::new(),
         })
     }
 
@@ -559,10 +635,11 @@ impl Camera {
         pixels: &mut [f32],
     ) {
         let sensor = *base * self.mount;
-        render_radiance(
+        render_radiance_culled(
             scene,
             shader,
             &self.bundle,
+            &mut self.caster,
             &sensor,
             self.spec.max_range as f32,
             &mut self.radiance,

@@ -5,7 +5,8 @@
 //! filters of the Small Vision System the paper used do. What is left is a sparse disparity
 //! map; the ground-truth disparity b·f/z of every pixel is kept for validation.
 
-use crate::camera::{expose, render_radiance, CameraSpec, RayBundle, Shader};
+use crate::camera::{expose, render_radiance_culled, CameraSpec, RayBundle, Shader};
+use crate::frustum::FrustumCaster;
 use crate::scene::{iso_to_pose, Scene};
 use atrium_robots::DisparityImage;
 use rand_chacha::ChaCha8Rng;
@@ -114,6 +115,7 @@ pub struct StereoRig {
     /// Row-wise window sums of one disparity's differences, and the running column sums.
     hsum: Vec<f64>,
     colsum: Vec<f64>,
+    caster: FrustumCaster,
 }
 
 impl StereoRig {
@@ -135,6 +137,7 @@ impl StereoRig {
             integral2: vec![0.0; (c.width + 1) * (c.height + 1)],
             hsum: vec![0.0; n],
             colsum: vec![0.0; c.width],
+            caster: FrustumCaster::new(),
             spec,
         })
     }
@@ -157,19 +160,21 @@ impl StereoRig {
         let mut left = vec![0.0; n];
         let mut right = vec![0.0; n];
         let range = c.max_range as f32;
-        render_radiance(
+        render_radiance_culled(
             scene,
             shader,
             &self.bundle,
+            &mut self.caster,
             &(*base * self.left_mount),
             range,
             &mut left,
             Some(&mut self.depth),
         );
-        render_radiance(
+        render_radiance_culled(
             scene,
             shader,
             &self.bundle,
+            &mut self.caster,
             &(*base * self.right_mount),
             range,
             &mut right,
