@@ -280,12 +280,12 @@ impl Shader {
                 unsafe { avx::add_samples(&self.columns, p, n, FALLOFF_SOFTENING, self.ambient) };
             return albedo * e;
         }
-        self.add_samples(p, n, albedo)
+        albedo * self.add_samples(p, n)
     }
 
-    /// `albedo` times the ambient term plus every lit sample's Lambert term: the scalar loop
-    /// that `avx::add_samples` reproduces.
-    fn add_samples(&self, p: Vector, n: Vector, albedo: f32) -> f32 {
+    /// The ambient term plus every lit sample's Lambert term: the scalar loop that
+    /// `avx::add_samples` reproduces.
+    fn add_samples(&self, p: Vector, n: Vector) -> f32 {
         let mut e = self.ambient;
         for l in &self.samples {
             let d = l.pos - p;
@@ -298,7 +298,7 @@ impl Shader {
             let emit = l.isotropic + (1.0 - l.isotropic) * (-dir).dot(l.dir).max(0.0);
             e += l.power * lambert * emit / (r2 + FALLOFF_SOFTENING);
         }
-        albedo * e
+        e
     }
 
     /// A lamp seen directly: the ceiling point lies in its footprint.
@@ -863,7 +863,7 @@ mod tests {
                 )
                 .normalize();
                 let albedo = rng.random_range(0.1f32..1.0);
-                let want = shader.add_samples(p, n, albedo);
+                let want = albedo * shader.add_samples(p, n);
                 // SAFETY: checked above.
                 let e = unsafe {
                     avx::add_samples(&shader.columns, p, n, FALLOFF_SOFTENING, shader.ambient)

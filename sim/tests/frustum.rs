@@ -44,6 +44,28 @@ fn base_pose(x: f64, y: f64, yaw: f64) -> Pose {
     )
 }
 
+/// A camera anywhere over `area` at a height in `z`, rolled and pitched by up to `roll` and
+/// `pitch` rad, at any heading.
+fn random_camera(
+    rng: &mut ChaCha8Rng,
+    (lo, hi): ([f64; 2], [f64; 2]),
+    z: std::ops::Range<f64>,
+    roll: f64,
+    pitch: f64,
+) -> Pose {
+    let t = Translation3::new(
+        rng.random_range(lo[0]..hi[0]),
+        rng.random_range(lo[1]..hi[1]),
+        rng.random_range(z),
+    );
+    let r = UnitQuaternion::from_euler_angles(
+        rng.random_range(-roll..roll),
+        rng.random_range(-pitch..pitch),
+        rng.random_range(-3.2..3.2),
+    );
+    atrium_sim::scene::iso_to_pose(&Isometry3::from_parts(t, r))
+}
+
 /// Renders with both paths and compares every pixel's depth bit for bit; returns the
 /// number of valid pixels.
 fn compare_depths(scene: &Scene, cam: &mut DepthCamera, base: &Pose, what: &str) -> usize {
@@ -161,17 +183,7 @@ fn hits_match_with_tilted_cameras_and_cameras_touching_walls() {
     let spec = kinect(8);
     let mut fallbacks = 0;
     for k in 0..200 {
-        let t = Translation3::new(
-            rng.random_range(lo[0]..hi[0]),
-            rng.random_range(lo[1]..hi[1]),
-            rng.random_range(0.05..2.9),
-        );
-        let r = UnitQuaternion::from_euler_angles(
-            rng.random_range(-0.6..0.6),
-            rng.random_range(-1.2..1.2),
-            rng.random_range(-3.2..3.2),
-        );
-        let cam = atrium_sim::scene::iso_to_pose(&Isometry3::from_parts(t, r));
+        let cam = random_camera(&mut rng, (lo, hi), 0.05..2.9, 0.6, 1.2);
         fallbacks += compare_hits(&scene, &cam, &spec, &format!("camera {k}"));
     }
     // Ties only (cameras inside a wall, where every ray starts at distance 0; corners): a
@@ -317,17 +329,7 @@ fn radiance_images_match_the_per_ray_renderer() {
         let shader = Shader::new(&world, &scene, condition);
         let (lo, hi) = bounds(&world);
         for k in 0..40 {
-            let t = Translation3::new(
-                rng.random_range(lo[0]..hi[0]),
-                rng.random_range(lo[1]..hi[1]),
-                rng.random_range(0.2..2.5),
-            );
-            let r = UnitQuaternion::from_euler_angles(
-                rng.random_range(-0.3..0.3),
-                rng.random_range(-0.8..0.8),
-                rng.random_range(-3.2..3.2),
-            );
-            let cam = atrium_sim::scene::iso_to_pose(&Isometry3::from_parts(t, r));
+            let cam = random_camera(&mut rng, (lo, hi), 0.2..2.5, 0.3, 0.8);
             let (mut want, mut want_z) = (vec![0.0f32; n], vec![0.0f32; n]);
             let (mut got, mut got_z) = (vec![1.0f32; n], vec![1.0f32; n]);
             render_radiance(
