@@ -210,6 +210,8 @@ impl<'a> SimStream<'a> {
         let config = scenario.sim_config(derive_seed(seed, "sim"));
         let mut sim = Simulation::new(&scenario.world, &scenario.robot, config)
             .map_err(|e| sim_error(scenario, e))?;
+        // A run reads the scene only through the simulation's own sensors.
+        sim.set_people_placement(atrium_sim::PeoplePlacement::SensorInstants);
         match &scenario.node_route {
             Some(route) => sim
                 .set_node_route(&route.nodes, route.params)

@@ -409,6 +409,14 @@ impl CameraStream {
         }))
     }
 
+    /// Whether any camera reads the scene at `step`.
+    pub(crate) fn due_at(&self, step: u64) -> bool {
+        self.cameras.iter().any(|(_, s, _)| s.due_at(step))
+            || self.rigs.iter().any(|(_, s, _)| s.due_at(step))
+            || self.ceiling.iter().any(|(_, s, _)| s.due_at(step))
+            || self.omni.iter().any(|(_, s, _)| s.due_at(step))
+    }
+
     /// Renders the cameras that are due at `step` with the base at `base`; intensity cameras
     /// first, then each rig's left image and disparity map, then ceiling and omni cameras.
     pub(crate) fn step(

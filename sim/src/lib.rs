@@ -27,7 +27,7 @@ pub use error::SimError;
 pub use landmarks::LandmarkDetector;
 pub use laser::{cast_beam, Laser};
 pub use node_controller::{NodeArrival, NodeController, NodeControllerParams};
-pub use people::{People, PeopleParams};
+pub use people::{People, PeopleParams, PeoplePlacement};
 pub use robot::RobotBodies;
 pub use scene::{LaserSurface, Scene, SceneMaterial, StaticKind};
 pub use simulation::{SimConfig, Simulation};

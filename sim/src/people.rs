@@ -1,6 +1,14 @@
 //! Pedestrians: people who walk between random goals in the free floor at walking speed, as
-//! kinematic rapier bodies that every sensor ray sees and nothing pushes. They live in the
-//! scene only, never in the `World`, so no map a localizer is given knows them.
+//! rapier colliders that every sensor ray sees and nothing pushes. They live in the scene
+//! only, never in the `World`, so no map a localizer is given knows them.
+//!
+//! Each person is a collider without a body, moved by [`People::place`]. Rays are all that
+//! see a person, so a person's collider need only be where they are when something casts:
+//! the simulation places people before every physics step, or only before the steps after
+//! which its own sensors cast (`PeoplePlacement`). The positions [`People::step`] advances
+//! are current at every step either way. Kinematic bodies moved every step cost rapier a
+//! support-point bounding box per person per step; placed at a 10 Hz scan rate instead, a
+//! twentieth of that.
 //!
 //! Where people may walk is a coarse grid over the world's bounds: a cell is walkable when a
 //! person standing anywhere in it clears every wall, pillar and box (the obstacle test is
@@ -328,7 +336,9 @@ struct Person {
     goal: [f64; 2],
     /// Seconds spent waiting for the robot.
     waited: f64,
-    body: RigidBodyHandle,
+    collider: ColliderHandle,
+    /// Whether the collider stands at `pos`.
+    placed: bool,
 }
 
 /// The people of a run and the random stream that moves them.
@@ -341,6 +351,23 @@ pub struct People {
     rng: ChaCha8Rng,
     /// Robot footprint in the base frame (min, max corners), m.
     footprint: ([f64; 2], [f64; 2]),
+}
+
+/// When the simulation moves people's colliders to where they walked (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PeoplePlacement {
+    /// Before every physics step: the scene is current after every step, for callers that
+    /// cast rays of their own between the simulation's sensor readings.
+    #[default]
+    EveryStep,
+    /// Only before the steps after which one of the simulation's own sensors reads the scene:
+    /// those readings are exactly the `EveryStep` ones, at a fraction of the cost.
+    SensorInstants,
+}
+
+/// Where a person's collider stands: the cylinder's centre, floating just above the floor.
+fn person_translation(pos: [f64; 2], height: f64) -> Vector {
+    vec3(pos[0], pos[1], FLOAT + 0.5 * height)
 }
 
 /// Distance from `p` (world frame) to the robot's footprint box with the base at `robot`.
@@ -399,28 +426,26 @@ impl People {
                 }
             }
             let Some(pos) = spot else { continue };
-            let body = RigidBodyBuilder::kinematic_position_based()
-                .translation(vec3(pos[0], pos[1], FLOAT + 0.5 * params.height))
-                .build();
-            let body = scene.physics.insert_body(body);
             // A cylinder's axis is its local +Y: stand it up along Z. Members of the people
             // group, filtering on it alone: the robot (which filters on the static groups)
             // never touches a person, and sensor rays (whose filter includes the group) see
             // them.
             let collider = ColliderBuilder::cylinder((0.5 * params.height) as f32, r as f32)
                 .rotation(Vector::new(std::f32::consts::FRAC_PI_2, 0.0, 0.0))
+                .translation(person_translation(pos, params.height))
                 .collision_groups(InteractionGroups::new(
                     PEOPLE_GROUP,
                     NOBODY_GROUP,
                     InteractionTestMode::And,
                 ))
                 .user_data(PERSON_TAG | ((people.people.len() as u128) << 8));
-            scene.physics.insert_collider(collider, Some(body));
+            let collider = scene.physics.insert_collider(collider, None);
             people.people.push(Person {
                 pos,
                 goal: pos,
                 waited: 0.0,
-                body,
+                collider,
+                placed: true,
             });
             people.positions.push(pos);
         }
@@ -487,9 +512,9 @@ impl People {
         }
     }
 
-    /// Moves every person by one step of `dt` s with the robot's base at `robot`, and sets
-    /// their kinematic bodies' next positions (taken by the coming physics step).
-    pub fn step(&mut self, physics: &mut PhysicsWorld, robot: &Pose2, dt: f64) {
+    /// Moves every person by one step of `dt` s with the robot's base at `robot`. Their
+    /// colliders stay where they were until [`People::place`].
+    pub fn step(&mut self, robot: &Pose2, dt: f64) {
         let keep = self.params.radius + ROBOT_MARGIN;
         for i in 0..self.people.len() {
             let Person { pos, goal, .. } = self.people[i];
@@ -515,17 +540,23 @@ impl People {
             let p = &mut self.people[i];
             p.pos = next;
             p.waited = 0.0;
+            p.placed = false;
             self.positions[i] = next;
-            if let Some(b) = physics.bodies.get_mut(p.body) {
-                b.set_next_kinematic_translation(vec3(
-                    next[0],
-                    next[1],
-                    FLOAT + 0.5 * self.params.height,
-                ));
-            }
             if stride >= dist {
                 self.new_goal(i, None);
             }
+        }
+    }
+
+    /// Moves the colliders of the people who walked since the last placement to where they
+    /// are; the coming physics step brings them into the scene that rays query.
+    pub fn place(&mut self, physics: &mut PhysicsWorld) {
+        let height = self.params.height;
+        for p in self.people.iter_mut().filter(|p| !p.placed) {
+            if let Some(c) = physics.colliders.get_mut(p.collider) {
+                c.set_translation(person_translation(p.pos, height));
+            }
+            p.placed = true;
         }
     }
 

@@ -102,8 +102,13 @@ impl Schedule {
         })
     }
 
+    /// Whether a reading is due at `step`, without taking it.
+    pub(crate) fn due_at(&self, step: u64) -> bool {
+        step >= self.next_step
+    }
+
     pub(crate) fn due(&mut self, step: u64) -> bool {
-        if step < self.next_step {
+        if !self.due_at(step) {
             return false;
         }
         self.count += 1;
@@ -149,6 +154,7 @@ pub struct Simulation {
     /// Pedestrians, when the density is above 0, and the robot's corridor ahead that they
     /// may block.
     people: Option<crate::people::People>,
+    people_placement: crate::people::PeoplePlacement,
     look_ahead: crate::controller::LookAhead,
 }
 
@@ -286,6 +292,7 @@ impl Simulation {
             depth_cameras,
             cameras,
             people,
+            people_placement: Default::default(),
             look_ahead,
         })
     }
@@ -317,8 +324,18 @@ impl Simulation {
     /// Returns the ground-truth pose.
     pub fn step(&mut self, out: &mut Vec<Reading>) -> Pose2 {
         let dt = 1.0 / self.physics_hz;
+        let place_people = self.people.is_some()
+            && match self.people_placement {
+                crate::people::PeoplePlacement::EveryStep => true,
+                crate::people::PeoplePlacement::SensorInstants => {
+                    self.scene_read_at(self.steps + 1)
+                }
+            };
         if let Some(people) = &mut self.people {
-            people.step(&mut self.scene.physics, &self.truth, dt);
+            people.step(&self.truth, dt);
+            if place_people {
+                people.place(&mut self.scene.physics);
+            }
             let (v, _) = self.follower.command();
             let blocked = self.look_ahead.blocked(
                 &self.truth,
@@ -392,6 +409,25 @@ impl Simulation {
             }
         }
         self.truth
+    }
+
+    /// Whether one of the simulation's sensors casts rays into the scene after step `step`
+    /// (odometry and WiFi read no geometry).
+    fn scene_read_at(&self, step: u64) -> bool {
+        self.laser_schedules.iter().any(|s| s.due_at(step))
+            || self.landmark_detectors.iter().any(|(_, s)| s.due_at(step))
+            || self.depth_cameras.iter().any(|(_, s, _)| s.due_at(step))
+            || self.cameras.as_ref().is_some_and(|c| c.due_at(step))
+    }
+
+    /// When people's colliders follow their walk: before every step (the default, so rays a
+    /// caller casts into [`Simulation::scene`], [`Simulation::scan_at`] or
+    /// [`Simulation::depth_at`] between readings see everyone where they are), or only
+    /// before the steps after which the simulation's own sensors read; in between, those
+    /// calls see people where the last reading saw them. The simulation's own readings are
+    /// the same bits either way (`sim/tests/people.rs`).
+    pub fn set_people_placement(&mut self, placement: crate::people::PeoplePlacement) {
+        self.people_placement = placement;
     }
 
     /// The WiFi scanner, when configured (its field gives the noise-free mean RSSI).

@@ -4,7 +4,7 @@
 use atrium_robots::{LaserSpec, Pose2, Reading};
 use atrium_sim::fixtures;
 use atrium_sim::people::footprint_distance;
-use atrium_sim::{PeopleParams, SimConfig, Simulation};
+use atrium_sim::{PeopleParams, PeoplePlacement, SimConfig, Simulation};
 use atrium_worlds::World;
 
 fn people(density: f64) -> PeopleParams {
@@ -209,4 +209,65 @@ fn a_laser_scan_sees_a_person_where_the_map_sees_the_far_wall() {
         seen > 5,
         "a person was in front of the laser in only {seen} scans"
     );
+}
+
+/// People placed only before the steps after which a sensor reads give every reading of
+/// placing them before every step, bit for bit: a laser and a depth camera at rates whose
+/// instants mostly differ, in the hall with the robot driving through a crowd whom the laser
+/// does see (beams end on people).
+#[test]
+fn people_placed_at_sensor_instants_give_the_every_step_readings() {
+    let world = hall();
+    let mut laser = LaserSpec::sick_lms200("front", "laser");
+    laser.rate_hz = 10.0;
+    let mut depth = atrium_robots::DepthCameraSpec::kinect("kinect", "laser");
+    (depth.decimation, depth.rate_hz) = (16, 7.0);
+    let config = SimConfig {
+        lasers: vec![laser],
+        depth_cameras: vec![depth],
+        ..hall_config(5, 8.0)
+    };
+    let radius = config.people.radius;
+    let run = |placement: PeoplePlacement| {
+        let mut s = sim(&world, config.clone());
+        s.set_people_placement(placement);
+        s.set_route(&HALL_ROUTE);
+        let (mut out, mut on_people) = (Vec::new(), 0);
+        for _ in 0..3000 {
+            let before = out.len();
+            s.step(&mut out);
+            let Some(Reading::Laser(scan)) = out[before..]
+                .iter()
+                .find(|r| matches!(r, Reading::Laser(_)))
+            else {
+                continue;
+            };
+            let g = s.ground_truth();
+            let o = g.transform_point([0.16, 0.0]);
+            let truth = s.last_true_ranges(0).unwrap();
+            for (k, &r) in truth.iter().enumerate() {
+                let a = g.theta + scan.beam_angle(k);
+                let hit = [o[0] + r * a.cos(), o[1] + r * a.sin()];
+                let people = s.people().unwrap().positions();
+                if people
+                    .iter()
+                    .any(|c| (hit[0] - c[0]).hypot(hit[1] - c[1]) < radius + 0.02)
+                {
+                    on_people += 1;
+                }
+            }
+        }
+        (out, on_people)
+    };
+    let (every, seen) = run(PeoplePlacement::EveryStep);
+    let (instants, seen_too) = run(PeoplePlacement::SensorInstants);
+    let sensed = |r: &&Reading| matches!(r, Reading::Laser(_) | Reading::Depth(_));
+    assert!(every.iter().filter(sensed).count() > 200);
+    eprintln!("{seen} beams ended on people");
+    assert!(seen > 100, "{seen} beams ended on people");
+    assert_eq!(seen, seen_too);
+    assert_eq!(every.len(), instants.len());
+    for (k, (a, b)) in every.iter().zip(&instants).enumerate() {
+        assert_eq!(a, b, "reading {k}");
+    }
 }
