@@ -14,6 +14,7 @@ pub mod landmarks;
 pub mod laser;
 pub mod node_controller;
 pub mod people;
+pub mod person_shape;
 pub mod robot;
 pub mod scene;
 pub mod simulation;

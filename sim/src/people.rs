@@ -2,7 +2,8 @@
 //! rapier colliders that every sensor ray sees and nothing pushes. They live in the scene
 //! only, never in the `World`, so no map a localizer is given knows them.
 //!
-//! Each person is a collider without a body, moved by [`People::place`]. Rays are all that
+//! Each person is a cylinder collider without a body (a [`PersonShape`], which rays meet in
+//! closed form rather than by parry's GJK), moved by [`People::place`]. Rays are all that
 //! see a person, so a person's collider need only be where they are when something casts:
 //! the simulation places people before every physics step, or only before the steps after
 //! which its own sensors cast (`PeoplePlacement`). The positions [`People::step`] advances
@@ -25,6 +26,7 @@
 //! crowd dynamics are not what a localizer is tested on).
 
 use crate::error::SimError;
+use crate::person_shape::PersonShape;
 use crate::scene::{vec3, Scene, PEOPLE_GROUP};
 use atrium_robots::Pose2;
 use atrium_worlds::World;
@@ -430,7 +432,8 @@ impl People {
             // group, filtering on it alone: the robot (which filters on the static groups)
             // never touches a person, and sensor rays (whose filter includes the group) see
             // them.
-            let collider = ColliderBuilder::cylinder((0.5 * params.height) as f32, r as f32)
+            let shape = Cylinder::new((0.5 * params.height) as f32, r as f32);
+            let collider = ColliderBuilder::new(SharedShape::new(PersonShape(shape)))
                 .rotation(Vector::new(std::f32::consts::FRAC_PI_2, 0.0, 0.0))
                 .translation(person_translation(pos, params.height))
                 .collision_groups(InteractionGroups::new(
