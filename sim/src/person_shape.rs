@@ -6,6 +6,7 @@
 //! its two caps, which two square roots' worth of algebra answers exactly. Everything else
 //! (bounding boxes, point queries, the support map, mass) is the cylinder's own.
 
+use crate::scene::vec3;
 use rapier3d::parry::bounding_volume::{Aabb, BoundingSphere};
 use rapier3d::parry::mass_properties::MassProperties;
 use rapier3d::parry::math::{Pose, Real, Vector};
@@ -90,14 +91,6 @@ fn span(o: [f64; 3], d: [f64; 3], h: f64, r: f64) -> Option<Span> {
     })
 }
 
-fn to_f64(v: Vector) -> [f64; 3] {
-    [v.x as f64, v.y as f64, v.z as f64]
-}
-
-fn to_vector(v: [f64; 3]) -> Vector {
-    Vector::new(v[0] as Real, v[1] as Real, v[2] as Real)
-}
-
 impl RayCast for PersonShape {
     /// As parry's casts: from outside, the entry and its outward normal; from inside, time 0
     /// when `solid`, else the exit with the normal facing inwards.
@@ -109,8 +102,8 @@ impl RayCast for PersonShape {
     ) -> Option<RayIntersection> {
         let c = &self.0;
         let s = span(
-            to_f64(ray.origin),
-            to_f64(ray.dir),
+            ray.origin.as_dvec3().to_array(),
+            ray.dir.as_dvec3().to_array(),
             c.half_height as f64,
             c.radius as f64,
         )?;
@@ -123,8 +116,13 @@ impl RayCast for PersonShape {
             (s.exit, [-n[0], -n[1], -n[2]])
         };
         let toi = toi as Real;
-        (toi <= max_time_of_impact)
-            .then(|| RayIntersection::new(toi, to_vector(normal), FeatureId::Unknown))
+        (toi <= max_time_of_impact).then(|| {
+            RayIntersection::new(
+                toi,
+                vec3(normal[0], normal[1], normal[2]),
+                FeatureId::Unknown,
+            )
+        })
     }
 }
 
