@@ -32,7 +32,7 @@ use atrium_localization::appearance_apf::{
 use atrium_localization::em_pca::{EmPca, EmPcaParams, ProjectionScratch};
 use atrium_localization::mcl::InitialBelief;
 use atrium_localization::pca::{Pca, PcaMethod};
-use atrium_localization::{Localizer, OdometryDelta};
+use atrium_localization::{Localizer, OdometryDelta, ReadingCounts};
 use atrium_robots::{DisparityImage, IntensityImage, Pose2, Reading};
 use atrium_scenarios::error::ScenarioError;
 use atrium_scenarios::scenario::Scenario;

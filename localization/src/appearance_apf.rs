@@ -28,11 +28,12 @@ use crate::appearance::{fuse, AppearanceMap, Component, PoseKernel};
 use crate::cluster::PointEstimate;
 use crate::em_pca::{EmPca, EmPcaParams, ProjectionScratch};
 use crate::error::LocalizationError;
+use crate::limits::check_positive;
 use crate::localizer::OdometryDelta;
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particle_filter::{FilterCore, ParticleFilter};
-use crate::particles::Rejections;
+use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
+use crate::particles::{ReadingCounts, ReadingTally};
 use crate::pca::{Pca, PcaMethod};
 use crate::resampling::low_variance_indices;
 use atrium_robots::{normalize_angle, DisparityImage, IntensityImage, Pose2, Reading};
@@ -354,9 +355,7 @@ impl ApfParams {
             ("min_motion_sd_xy", self.min_motion_sd_xy),
             ("min_motion_sd_theta_deg", self.min_motion_sd_theta_deg),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
-            }
+            check_positive(name, v)?;
         }
         crate::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
@@ -406,8 +405,13 @@ pub struct AppearanceApf {
     disparity: Pending,
     fused: Vec<Component>,
     last_model: Vec<Component>,
-    updates: usize,
-    rejected: Rejections,
+    tally: ReadingTally,
+}
+
+impl ReadingCounts for AppearanceApf {
+    fn tally(&self) -> &ReadingTally {
+        &self.tally
+    }
 }
 
 impl AppearanceApf {
@@ -444,8 +448,7 @@ impl AppearanceApf {
             disparity: Pending::new(k_max),
             fused: Vec::with_capacity(k_max),
             last_model: Vec::with_capacity(k_max),
-            updates: 0,
-            rejected: Rejections::default(),
+            tally: ReadingTally::default(),
             model,
             params,
         };
@@ -456,20 +459,6 @@ impl AppearanceApf {
 
     pub fn model(&self) -> &AppearanceModel {
         &self.model
-    }
-
-    /// Sensor updates applied so far.
-    pub fn updates(&self) -> usize {
-        self.updates
-    }
-
-    /// Readings refused (wrong size, non-finite pixels) and the last reason.
-    pub fn rejected(&self) -> usize {
-        self.rejected.count
-    }
-
-    pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.rejected.last.as_ref()
     }
 
     /// The sensor model (eq. 2, fused as §VI when disparity was used) of the last update, for
@@ -629,7 +618,7 @@ impl AppearanceApf {
             });
         self.last_model.clear();
         self.last_model.extend_from_slice(components);
-        self.updates += 1;
+        self.tally.updates += 1;
         self.core.refresh_estimate(PointEstimate::WeightedMean);
     }
 
@@ -687,13 +676,7 @@ fn sensor_matches(wanted: &Option<String>, got: &str) -> bool {
 }
 
 impl ParticleFilter for AppearanceApf {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// Time moved past a frame whose partner never came: use it alone.
     fn before_odometry(&mut self, delta: &OdometryDelta) {
@@ -701,7 +684,7 @@ impl ParticleFilter for AppearanceApf {
     }
 
     /// Intensity images (and disparity maps when the map has disparity features) of the
-    /// configured sensors; a bad image is counted in [`AppearanceApf::rejected`], never a panic.
+    /// configured sensors; a bad image is counted in [`ReadingCounts::rejected`], never a panic.
     fn take_reading(&mut self, reading: &Reading) {
         match reading {
             Reading::Intensity(img)
@@ -721,7 +704,7 @@ impl ParticleFilter for AppearanceApf {
                         self.core.carry.observed_at(img.stamp);
                         self.observe(img.stamp, false);
                     }
-                    Err(e) => self.rejected.record(e),
+                    Err(e) => self.tally.record(e),
                 }
             }
             Reading::Disparity(map)
@@ -738,7 +721,7 @@ impl ParticleFilter for AppearanceApf {
                         self.observe(map.stamp, true);
                     }
                     Ok(false) => {}
-                    Err(e) => self.rejected.record(e),
+                    Err(e) => self.tally.record(e),
                 }
             }
             _ => {}
@@ -798,10 +781,7 @@ mod tests {
         Reading::Intensity(IntensityImage {
             stamp,
             sensor: "cam".into(),
-            mount: Mount3 {
-                xyz: [0.0; 3],
-                rpy: [0.0; 3],
-            },
+            mount: Mount3::default(),
             width: 8,
             height: 4,
             fx: 1.0,

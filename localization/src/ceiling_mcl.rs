@@ -13,10 +13,11 @@
 
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
+use crate::limits::check_positive;
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
-use crate::particle_filter::{intensity_from, FilterCore, ParticleFilter};
-use crate::particles::Rejections;
+use crate::particle_filter::{core_in_field, intensity_from, FilterCore, ParticleFilter};
+use crate::particles::{ReadingCounts, ReadingTally};
 use crate::resampling::ResamplePolicy;
 use atrium_robots::{IntensityImage, Reading};
 use serde::{Deserialize, Serialize};
@@ -239,9 +240,7 @@ impl CeilingMclParams {
         crate::particles::validate_particle_count(self.particles)?;
         crate::motion::validate_alpha(&self.alpha)?;
         for (name, v) in [("sigma", self.sigma), ("range", self.range)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
-            }
+            check_positive(name, v)?;
         }
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
@@ -289,8 +288,13 @@ pub struct CeilingMcl {
     motion: OdometryMotionModel,
     /// Below `resample_ess`: one brightness says little, so diversity is kept.
     policy: ResamplePolicy,
-    updates: usize,
-    rejected: Rejections,
+    tally: ReadingTally,
+}
+
+impl ReadingCounts for CeilingMcl {
+    fn tally(&self) -> &ReadingTally {
+        &self.tally
+    }
 }
 
 impl CeilingMcl {
@@ -310,8 +314,7 @@ impl CeilingMcl {
             core: FilterCore::new(name, m, seed),
             motion: OdometryMotionModel::new(params.alpha),
             policy: ResamplePolicy::BelowEss(params.resample_ess),
-            updates: 0,
-            rejected: Rejections::default(),
+            tally: ReadingTally::default(),
             params,
             map,
         };
@@ -326,18 +329,6 @@ impl CeilingMcl {
         brightness_likelihood(&self.params, &self.map, z, x, y)
     }
 
-    pub fn updates(&self) -> usize {
-        self.updates
-    }
-
-    pub fn rejected(&self) -> usize {
-        self.rejected.count
-    }
-
-    pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.rejected.last.as_ref()
-    }
-
     /// Motion update with the odometry since the last reading, then the brightness `z`.
     pub fn observe(&mut self, z: f64) -> Result<(), LocalizationError> {
         if !z.is_finite() {
@@ -350,7 +341,7 @@ impl CeilingMcl {
         let (params, map) = (&self.params, &self.map);
         core.set
             .reweight(|p, _| brightness_likelihood(params, map, z, p.x, p.y));
-        self.updates += 1;
+        self.tally.updates += 1;
         core.refresh_estimate(PointEstimate::WeightedMean);
         if self.policy.due(core.set.ess(), core.set.len()) {
             core.set.resample_plain(core.set.len(), &mut core.rng);
@@ -374,21 +365,14 @@ fn brightness_likelihood(p: &CeilingMclParams, map: &CeilingMap, z: f64, x: f64,
 }
 
 impl ParticleFilter for CeilingMcl {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
-    /// one is counted in [`CeilingMcl::rejected`].
+    /// one is counted in [`ReadingCounts::rejected`].
     fn take_reading(&mut self, reading: &Reading) {
         if let Some(img) = intensity_from(reading, &self.params.sensor) {
             let outcome = reading_brightness(img).and_then(|z| self.observe(z));
-            self.rejected
-                .settle(outcome, img.stamp, &mut self.core.carry);
+            self.tally.settle(outcome, img.stamp, &mut self.core.carry);
         }
     }
 }
@@ -424,10 +408,7 @@ mod tests {
         Reading::Intensity(IntensityImage {
             stamp,
             sensor: "ceiling".into(),
-            mount: Mount3 {
-                xyz: [0.0; 3],
-                rpy: [0.0; 3],
-            },
+            mount: Mount3::default(),
             width: 1,
             height: 1,
             fx: 1.0,

@@ -34,13 +34,15 @@ use crate::initial_belief::check_gaussian;
 use crate::line_map::{Correspondence, LineMap};
 use crate::motion::{apply_increment, OdometryMotionModel};
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{FilterCore, ParticleFilter};
+use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::limits::{check_count, check_count_min1, MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS};
+use crate::limits::{
+    check_count, check_count_min1, check_positive, MAX_BEAMS, MAX_PARTICLES, MAX_REFINEMENTS,
+};
 
 /// CGR parameters, as written in a scenario file. Every field has a default.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -119,13 +121,6 @@ impl Default for CgrParams {
 impl CgrParams {
     /// Checks every field; the message names the field and the value.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be finite and > 0, got {v}"))
-            }
-        };
         check_count_min1("particles", self.particles, MAX_PARTICLES, "MAX_PARTICLES")?;
         crate::motion::validate_alpha(&self.alpha)?;
         check_count(
@@ -137,9 +132,9 @@ impl CgrParams {
         if !(self.step > 0.0 && self.step <= 1.0) {
             return Err(format!("step must be in (0, 1], got {}", self.step));
         }
-        positive("sigma", self.sigma)?;
-        positive("outlier_sigmas", self.outlier_sigmas)?;
-        positive("max_correspondence", self.max_correspondence)?;
+        check_positive("sigma", self.sigma)?;
+        check_positive("outlier_sigmas", self.outlier_sigmas)?;
+        check_positive("max_correspondence", self.max_correspondence)?;
         if self.max_points < 3 {
             return Err(format!("max_points must be >= 3, got {}", self.max_points));
         }
@@ -150,9 +145,9 @@ impl CgrParams {
                 self.max_points, self.min_points
             ));
         }
-        positive("accept_sigma_xy", self.accept_sigma_xy)?;
-        positive("accept_sigma_theta", self.accept_sigma_theta)?;
-        positive("map_resolution", self.map_resolution)?;
+        check_positive("accept_sigma_xy", self.accept_sigma_xy)?;
+        check_positive("accept_sigma_theta", self.accept_sigma_theta)?;
+        check_positive("map_resolution", self.map_resolution)?;
         self.fspf.validate().map_err(|m| format!("fspf.{m}"))?;
         if !(self.max_normal_z.is_finite() && (0.0..1.0).contains(&self.max_normal_z)) {
             return Err(format!(
@@ -623,13 +618,7 @@ impl Cgr {
 }
 
 impl ParticleFilter for Cgr {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// Laser scans for a laser CGR, depth images for a depth CGR; everything else is
     /// ignored. A depth image FSPF cannot use (η larger than the image, malformed

@@ -11,7 +11,7 @@
 
 use crate::error::LocalizationError;
 use crate::limits::{
-    check_count, FSPF_MAX_LOCAL_SAMPLES, FSPF_MAX_NEIGHBOURHOODS, FSPF_MAX_POINTS,
+    check_count, check_positive, FSPF_MAX_LOCAL_SAMPLES, FSPF_MAX_NEIGHBOURHOODS, FSPF_MAX_POINTS,
 };
 use atrium_robots::DepthImage;
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, Vector3};
@@ -83,9 +83,7 @@ impl FspfParams {
             return Err(format!("l must be >= 3, got {}", self.l));
         }
         for (name, v) in [("plane_size", self.plane_size), ("epsilon", self.epsilon)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
-            }
+            check_positive(name, v)?;
         }
         if !(self.alpha_in.is_finite() && self.alpha_in > 0.0 && self.alpha_in <= 1.0) {
             return Err(format!("alpha_in must be in (0, 1], got {}", self.alpha_in));

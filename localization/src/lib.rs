@@ -56,6 +56,7 @@ pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
 pub use particle_filter::{FilterCore, ParticleFilter};
 pub use particle_set::ParticleSet;
+pub use particles::{ReadingCounts, ReadingTally};
 pub use resampling::{
     low_variance_indices, low_variance_indices_with_offset, Injection, ResamplePolicy,
 };

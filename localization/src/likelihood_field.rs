@@ -4,6 +4,7 @@
 //! parabolas, one 1-D pass per axis).
 
 use crate::error::LocalizationError;
+use crate::limits::check_positive;
 use atrium_worlds::{Cell, OccupancyGrid};
 
 mod avx2;
@@ -92,17 +93,10 @@ pub struct LikelihoodFieldParams {
 
 impl LikelihoodFieldParams {
     pub fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be finite and > 0, got {v}"))
-            }
-        };
-        pos("sigma_hit", self.sigma_hit)?;
-        pos("max_dist", self.max_dist)?;
-        pos("range_max", self.range_max)?;
-        pos("z_rand", self.z_rand)?;
+        check_positive("sigma_hit", self.sigma_hit)?;
+        check_positive("max_dist", self.max_dist)?;
+        check_positive("range_max", self.range_max)?;
+        check_positive("z_rand", self.z_rand)?;
         if !(self.z_hit.is_finite() && self.z_hit >= 0.0) {
             return Err(format!("z_hit must be finite and >= 0, got {}", self.z_hit));
         }

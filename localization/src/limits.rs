@@ -286,6 +286,16 @@ pub fn check_count_min1(
     check_count(field, value, limit, limit_name)
 }
 
+/// Checks a parameter that must be a finite positive number: `NAME must be finite and > 0,
+/// got V` (NaN and infinities included).
+pub fn check_positive(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} must be finite and > 0, got {v}"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,11 +9,12 @@ use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
 use crate::likelihood_field::{validate_grid, Headings, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
-    check_count, check_count_min1, check_grid, MAX_BEAMS, MAX_GLOBAL_PARTICLES, MCL_MAX_GRID_CELLS,
+    check_count, check_count_min1, check_grid, check_positive, MAX_BEAMS, MAX_GLOBAL_PARTICLES,
+    MCL_MAX_GRID_CELLS,
 };
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::FitTracker;
-use crate::particle_filter::{FilterCore, ParticleFilter};
+use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
 use crate::resampling::ResamplePolicy;
 use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
@@ -197,13 +198,6 @@ impl MclParams {
 
     /// Checks every field; the error names the field and the offending value.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be finite and > 0, got {v}"))
-            }
-        };
         let non_negative = |name: &str, v: f64| {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
@@ -241,7 +235,7 @@ impl MclParams {
         for (i, a) in self.alpha.iter().enumerate() {
             non_negative(&format!("alpha[{i}]"), *a)?;
         }
-        positive("kld_epsilon", self.kld_epsilon)?;
+        check_positive("kld_epsilon", self.kld_epsilon)?;
         if !(self.kld_delta > 0.0 && self.kld_delta < 1.0) {
             return Err(format!(
                 "kld_delta must be in (0, 1), got {}",
@@ -249,16 +243,16 @@ impl MclParams {
             ));
         }
         for (i, b) in self.kld_bin.iter().enumerate() {
-            positive(&format!("kld_bin[{i}]"), *b)?;
+            check_positive(&format!("kld_bin[{i}]"), *b)?;
         }
-        positive("sigma_hit", self.sigma_hit)?;
+        check_positive("sigma_hit", self.sigma_hit)?;
         non_negative("z_hit", self.z_hit)?;
         // z_rand is the floor of every beam's likelihood (and the value off the map): with 0
         // one unexplained beam would veto a particle outright.
-        positive("z_rand", self.z_rand)?;
+        check_positive("z_rand", self.z_rand)?;
         check_count_min1("max_beams", self.max_beams, MAX_BEAMS, "MAX_BEAMS")?;
-        positive("grid_resolution", self.grid_resolution)?;
-        positive("max_dist", self.max_dist)?;
+        check_positive("grid_resolution", self.grid_resolution)?;
+        check_positive("max_dist", self.max_dist)?;
         non_negative("alpha_slow", self.alpha_slow)?;
         non_negative("alpha_fast", self.alpha_fast)?;
         if self.alpha_slow > 1.0 || self.alpha_fast > 1.0 {
@@ -1031,13 +1025,7 @@ fn random_pose<R: Rng + ?Sized>(
 }
 
 impl ParticleFilter for Mcl {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// Laser scans only; odometry readings are ignored because odometry arrives through
     /// `predict` (using both would count it twice).

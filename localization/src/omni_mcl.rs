@@ -23,11 +23,12 @@
 
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
+use crate::limits::check_positive;
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::omni_map::OmniMap;
-use crate::particle_filter::{intensity_from, FilterCore, ParticleFilter};
-use crate::particles::Rejections;
+use crate::particle_filter::{core_in_field, intensity_from, FilterCore, ParticleFilter};
+use crate::particles::{ReadingCounts, ReadingTally};
 use crate::resampling::{injection_count, Injection, ResamplePolicy};
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use rand::Rng;
@@ -75,9 +76,7 @@ impl OmniMclParams {
         crate::particles::validate_particle_count(self.particles)?;
         crate::motion::validate_alpha(&self.alpha)?;
         if let Some(s) = self.sigma {
-            if !(s.is_finite() && s > 0.0) {
-                return Err(format!("sigma must be finite and > 0, got {s}"));
-            }
+            check_positive("sigma", s)?;
         }
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
@@ -113,8 +112,13 @@ pub struct OmniMcl {
     feat: Vec<f64>,
     /// Energy at every (node, rotation), then the cumulative proposal over them.
     table: Vec<f64>,
-    updates: usize,
-    rejected: Rejections,
+    tally: ReadingTally,
+}
+
+impl ReadingCounts for OmniMcl {
+    fn tally(&self) -> &ReadingTally {
+        &self.tally
+    }
 }
 
 impl OmniMcl {
@@ -148,8 +152,7 @@ impl OmniMcl {
             policy: ResamplePolicy::BelowEss(params.resample_ess),
             feat: vec![0.0; map.d()],
             table: Vec::with_capacity(nx * ny * map.rotations()),
-            updates: 0,
-            rejected: Rejections::default(),
+            tally: ReadingTally::default(),
             params,
             map,
         };
@@ -161,18 +164,6 @@ impl OmniMcl {
     /// The feature-space σ in use.
     pub fn sigma(&self) -> f64 {
         (0.5 / self.inv_two_sigma2).sqrt()
-    }
-
-    pub fn updates(&self) -> usize {
-        self.updates
-    }
-
-    pub fn rejected(&self) -> usize {
-        self.rejected.count
-    }
-
-    pub fn last_error(&self) -> Option<&LocalizationError> {
-        self.rejected.last.as_ref()
     }
 
     /// Motion update with the odometry since the last reading, then the panorama `image`
@@ -201,7 +192,7 @@ impl OmniMcl {
                 1.0
             }
         });
-        self.updates += 1;
+        self.tally.updates += 1;
         self.core.refresh_estimate(PointEstimate::WeightedMean);
         if self.policy.due(self.core.set.ess(), m) {
             self.resample();
@@ -271,21 +262,14 @@ impl OmniMcl {
 }
 
 impl ParticleFilter for OmniMcl {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// Intensity readings of the sensor named in the parameters; others are ignored, a bad
-    /// one is counted in [`OmniMcl::rejected`].
+    /// one is counted in [`ReadingCounts::rejected`].
     fn take_reading(&mut self, reading: &Reading) {
         if let Some(img) = intensity_from(reading, &self.params.sensor) {
             let outcome = self.check(img).and_then(|()| self.observe(&img.pixels));
-            self.rejected
-                .settle(outcome, img.stamp, &mut self.core.carry);
+            self.tally.settle(outcome, img.stamp, &mut self.core.carry);
         }
     }
 

@@ -75,6 +75,22 @@ impl FilterCore {
     }
 }
 
+/// [`ParticleFilter::core`] and [`ParticleFilter::core_mut`] for a filter that keeps its
+/// [`FilterCore`] in a field named `core`, as every filter of the crate does: written once
+/// here rather than twice in each filter.
+macro_rules! core_in_field {
+    () => {
+        fn core(&self) -> &$crate::particle_filter::FilterCore {
+            &self.core
+        }
+
+        fn core_mut(&mut self) -> &mut $crate::particle_filter::FilterCore {
+            &mut self.core
+        }
+    };
+}
+pub(crate) use core_in_field;
+
 /// A particle filter on a [`FilterCore`]; [`Localizer`] and [`Capabilities`] come with it.
 pub trait ParticleFilter: Clone + Send + 'static {
     fn core(&self) -> &FilterCore;

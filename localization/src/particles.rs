@@ -1,7 +1,7 @@
 //! Pieces every particle filter here shares besides the set itself (`particle_set.rs`): the
 //! weighted estimate of struct-of-arrays columns, weight normalisation, the odometry a filter
-//! has received but not yet applied and the estimate carried forward by it, and the count of
-//! readings a filter refused.
+//! has received but not yet applied and the estimate carried forward by it, and the tally of
+//! the readings a filter used and refused.
 
 use crate::error::LocalizationError;
 use crate::localizer::{Estimate, OdometryDelta};
@@ -178,18 +178,20 @@ impl CarriedEstimate {
     }
 }
 
-/// Readings a filter refused (wrong size, non-finite values) and the last reason: a bad
-/// reading is counted, never a panic nor an error that stops a run.
+/// What a filter did with the readings it was given: the sensor updates it applied, and the
+/// readings it refused (wrong size, non-finite values) with the last reason. A bad reading is
+/// counted, never a panic nor an error that stops a run.
 #[derive(Debug, Clone, Default)]
-pub struct Rejections {
-    pub count: usize,
-    pub last: Option<LocalizationError>,
+pub struct ReadingTally {
+    pub updates: usize,
+    pub rejected: usize,
+    pub last_error: Option<LocalizationError>,
 }
 
-impl Rejections {
+impl ReadingTally {
     pub fn record(&mut self, e: LocalizationError) {
-        self.count += 1;
-        self.last = Some(e);
+        self.rejected += 1;
+        self.last_error = Some(e);
     }
 
     /// The outcome of a reading stamped `stamp`: the filter's clock advances to it when it
@@ -204,6 +206,27 @@ impl Rejections {
             Ok(()) => carry.observed_at(stamp),
             Err(e) => self.record(e),
         }
+    }
+}
+
+/// The counts of a filter that keeps a [`ReadingTally`] (the camera filters, whose readings
+/// can be malformed): one accessor to implement, the rest follow.
+pub trait ReadingCounts {
+    fn tally(&self) -> &ReadingTally;
+
+    /// Sensor updates applied so far.
+    fn updates(&self) -> usize {
+        self.tally().updates
+    }
+
+    /// Readings refused so far.
+    fn rejected(&self) -> usize {
+        self.tally().rejected
+    }
+
+    /// Why the last refused reading was refused.
+    fn last_error(&self) -> Option<&LocalizationError> {
+        self.tally().last_error.as_ref()
     }
 }
 

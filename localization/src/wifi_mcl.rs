@@ -26,7 +26,7 @@ use crate::free_space::FreeSpace;
 use crate::mcl::InitialBelief;
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{FilterCore, ParticleFilter};
+use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
 use crate::resampling::Injection;
 use crate::wifi_graph::WifiGraph;
 use atrium_robots::{Pose2, Reading, WifiScan};
@@ -442,13 +442,7 @@ impl RandomPoses<'_> {
 }
 
 impl ParticleFilter for WifiMcl {
-    fn core(&self) -> &FilterCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut FilterCore {
-        &mut self.core
-    }
+    core_in_field!();
 
     /// WiFi scans only (odometry arrives through `predict`).
     fn take_reading(&mut self, reading: &Reading) {

@@ -327,7 +327,7 @@ mod tests {
     use atrium_localization::appearance_apf::{ApfParams, AppearanceApf};
     use atrium_localization::ceiling_mcl::{CeilingMcl, CeilingMclParams};
     use atrium_localization::mcl::InitialBelief;
-    use atrium_localization::{Localizer, OdometryDelta};
+    use atrium_localization::{Localizer, OdometryDelta, ReadingCounts};
     use atrium_robots::{DisparityImage, IntensityImage, Mount3, Reading};
     use atrium_worlds::lighting::LightingCondition;
     use atrium_worlds::World;
