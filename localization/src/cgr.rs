@@ -336,7 +336,7 @@ impl Cgr {
     /// The observation log-likelihood of `pose` for the current observation.
     pub fn log_likelihood(&self, pose: &Pose2) -> f64 {
         let mut terms = Terms::default();
-        self.evaluate(pose.x, pose.y, pose.theta, &mut terms);
+        self.match_points(pose.x, pose.y, pose.theta, &mut terms);
         self.log_likelihood_of(&terms)
     }
 
@@ -345,12 +345,14 @@ impl Cgr {
         let (mut x, mut y, mut th) = (pose.x, pose.y, pose.theta);
         let mut terms = Terms::default();
         let mut e = self.evaluate(x, y, th, &mut terms);
-        for _ in 0..r {
+        for k in 0..r {
             let d = self.refinement_step(&e);
             x += d[0];
             y += d[1];
             th = normalize_angle(th + d[2]);
-            e = self.evaluate(x, y, th, &mut terms);
+            if k + 1 < r {
+                e = self.evaluate(x, y, th, &mut terms);
+            }
         }
         Pose2::new(x, y, th)
     }
@@ -359,25 +361,33 @@ impl Cgr {
     /// (x, y, θ); each point's Gaussian factor goes to `terms` for
     /// [`Cgr::log_likelihood_of`]. Allocation-free once `terms` has grown to the observation.
     fn evaluate(&self, px: f64, py: f64, th: f64, terms: &mut Terms) -> Eval {
+        let (s, c) = self.match_points(px, py, th, terms);
+        self.gradient(s, c, terms)
+    }
+
+    /// The first two of an evaluation's three passes: each observed point's segment and
+    /// Gaussian factor at (x, y, θ), into `terms`; all the log-likelihood needs, and all a
+    /// pose whose gradient would go unused (the last refinement iterate) is given. Returns
+    /// sin θ and cos θ for [`Cgr::gradient`].
+    fn match_points(&self, px: f64, py: f64, th: f64, terms: &mut Terms) -> (f64, f64) {
         let sigma2 = self.params.sigma * self.params.sigma;
-        let eps_out = self.outlier_floor();
         let (s, c) = th.sin_cos();
         let min_cos = match &self.source {
             Source::Depth { min_cos, .. } => *min_cos,
             Source::Laser => 0.0,
         };
         let with_normals = self.obs_normals.len() == self.obs.len();
-        let lines = self.map.lines();
         let Terms {
             g: factors,
             matched,
         } = terms;
         factors.clear();
         matched.clear();
-        // Three passes over the points, each with no chain from one point to the next but
-        // the sums of the last: the processor overlaps the points' lookups, divisions and
-        // library calls, where one pass per point waited for each in turn (the work and its
-        // order per value are unchanged, so the results are too, bit for bit).
+        // Three passes over the points (with the gradient's), each with no chain from one
+        // point to the next but the sums of the last: the processor overlaps the points'
+        // lookups, divisions and library calls, where one pass per point waited for each in
+        // turn (the work and its order per value are unchanged, so the results are too, bit
+        // for bit).
         for (i, q) in self.obs.iter().enumerate() {
             let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
             let constraint = if with_normals {
@@ -398,10 +408,19 @@ impl Cgr {
             let d = m.corr.distance;
             factors[m.point] = (-0.5 * d * d / sigma2).exp();
         }
+        (s, c)
+    }
+
+    /// The third pass: gradient and Gauss–Newton diagonal from the points matched by
+    /// [`Cgr::match_points`] at a pose of heading sin θ = `s`, cos θ = `c`.
+    fn gradient(&self, s: f64, c: f64, terms: &Terms) -> Eval {
+        let sigma2 = self.params.sigma * self.params.sigma;
+        let eps_out = self.outlier_floor();
+        let lines = self.map.lines();
         let mut e = Eval::default();
-        for m in matched.iter() {
+        for m in terms.matched.iter() {
             let q = self.obs[m.point];
-            let g = factors[m.point];
+            let g = terms.g[m.point];
             // Residual vector from the closest point of the segment to p, and its length.
             let (r, d) = (m.corr.residual, m.corr.distance);
             // d/dpose of ½d²: r·∂p; the mixture weights it by g / (g + ε_out).
@@ -561,7 +580,7 @@ impl Cgr {
             let ll0 = self.log_likelihood_of(&terms);
             let (mut cx, mut cy, mut ct) = (q0.x, q0.y, q0.theta);
             let mut refined = false;
-            for _ in 0..r {
+            for k in 0..r {
                 let d = self.refinement_step(&e);
                 if d[0].abs() < 1e-6 && d[1].abs() < 1e-6 && d[2].abs() < 1e-7 {
                     break;
@@ -569,7 +588,11 @@ impl Cgr {
                 cx += d[0];
                 cy += d[1];
                 ct = normalize_angle(ct + d[2]);
-                e = self.evaluate(cx, cy, ct, &mut terms);
+                // qʳ needs only its likelihood, for the acceptance test: no gradient.
+                let (s, c) = self.match_points(cx, cy, ct, &mut terms);
+                if k + 1 < r {
+                    e = self.gradient(s, c, &terms);
+                }
                 refined = true;
             }
             let llr = if refined {
