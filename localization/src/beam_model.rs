@@ -53,12 +53,7 @@ impl BeamModelParams {
             // Without it one unexplained reading zeroes a particle's weight for good.
             return Err(format!("beam z_rand must be > 0, got {}", self.z_rand));
         }
-        if !(self.sigma_hit.is_finite() && self.sigma_hit > 0.0) {
-            return Err(format!(
-                "sigma_hit must be finite and > 0, got {}",
-                self.sigma_hit
-            ));
-        }
+        crate::limits::check_positive("sigma_hit", self.sigma_hit)?;
         if !(self.lambda_short.is_finite() && self.lambda_short > 0.0) {
             return Err(format!(
                 "beam lambda_short must be finite and > 0, got {}",

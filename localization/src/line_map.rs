@@ -5,7 +5,7 @@
 //! gradient are built on point-to-line distances to the map.
 
 use crate::error::LocalizationError;
-use crate::limits::{check_grid, LINE_MAP_MAX_CELLS};
+use crate::limits::{check_grid, check_positive, LINE_MAP_MAX_CELLS};
 use atrium_worlds::VectorMap;
 
 /// Candidate segments kept per grid cell.
@@ -82,16 +82,9 @@ impl LineMap {
     /// segments nearest to its centre among those within `reach` (plus half a cell
     /// diagonal). Zero-length segments are dropped.
     pub fn new(map: &VectorMap, resolution: f64, reach: f64) -> Result<Self, LocalizationError> {
-        if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(LocalizationError::InvalidParameter(format!(
-                "map_resolution must be finite and > 0, got {resolution}"
-            )));
-        }
-        if !(reach.is_finite() && reach > 0.0) {
-            return Err(LocalizationError::InvalidParameter(format!(
-                "max_correspondence must be finite and > 0, got {reach}"
-            )));
-        }
+        check_positive("map_resolution", resolution)
+            .and_then(|()| check_positive("max_correspondence", reach))
+            .map_err(LocalizationError::InvalidParameter)?;
         let mut lines = Vec::with_capacity(map.segments.len());
         for s in &map.segments {
             let (dx, dy) = (s.b[0] - s.a[0], s.b[1] - s.a[1]);
