@@ -751,8 +751,11 @@ impl Mcl {
             width: self.grid_width,
         };
         let (field, samples) = (&*self.field, self.params.inject_from_scan);
-        // Matched only when the first particle is injected: most updates inject none.
-        let mut matched: Vec<Pose2> = Vec::new();
+        // Ranked only when the first particle is injected (most updates inject none), and
+        // each candidate refined only when first drawn: an update that injects a few
+        // particles draws a few of the `keep` candidates. `refine` draws no random numbers,
+        // so the particles are those refining every candidate up front gives.
+        let mut matched: Vec<(Pose2, bool)> = Vec::new();
         self.core
             .set
             .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
@@ -763,10 +766,18 @@ impl Mcl {
                 };
                 if matched.is_empty() {
                     let keep = (samples / 100).max(1);
-                    matched =
-                        scan_matched_poses(field, coarse, &endpoints, &draw, samples, keep, rng);
+                    matched = scan_candidates(coarse, &endpoints, &draw, samples, keep, rng)
+                        .into_iter()
+                        .map(|p| (p, false))
+                        .collect();
                 }
-                matched[rng.random_range(0..matched.len())]
+                let j = rng.random_range(0..matched.len());
+                let (pose, refined) = &mut matched[j];
+                if !*refined {
+                    *pose = refine_on_scan(field, &endpoints, *pose);
+                    *refined = true;
+                }
+                *pose
             });
     }
 }
@@ -798,21 +809,50 @@ fn scan_matched_poses<R: Rng + ?Sized>(
     keep: usize,
     rng: &mut R,
 ) -> Vec<Pose2> {
+    scan_candidates(coarse, endpoints, draw, samples, keep, rng)
+        .into_iter()
+        .map(|p| refine_on_scan(field, endpoints, p))
+        .collect()
+}
+
+/// The unrefined candidates of [`scan_matched_poses`], in its order.
+fn scan_candidates<R: Rng + ?Sized>(
+    coarse: &CoarseDistance,
+    endpoints: &Beams,
+    draw: &PoseDraw,
+    samples: usize,
+    keep: usize,
+    rng: &mut R,
+) -> Vec<Pose2> {
     let params = ScanMatchParams::default();
-    let (bx, by) = (&endpoints.x, &endpoints.y);
     let poses: Vec<Pose2> = (0..samples).map(|_| draw.random(rng)).collect();
     let mut costs = vec![0.0; samples];
-    coarse.truncated_costs(bx, by, &poses, params.truncation, &mut costs);
+    coarse.truncated_costs(
+        &endpoints.x,
+        &endpoints.y,
+        &poses,
+        params.truncation,
+        &mut costs,
+    );
     let mut candidates: Vec<(f64, Pose2)> = costs.into_iter().zip(poses).collect();
     let keep = keep.min(candidates.len());
     if keep < candidates.len() {
         candidates.select_nth_unstable_by(keep, |a, b| a.0.total_cmp(&b.0));
         candidates.truncate(keep);
     }
-    candidates
-        .into_iter()
-        .map(|(_, p)| refine(field, bx, by, p, &params).0)
-        .collect()
+    candidates.into_iter().map(|(_, p)| p).collect()
+}
+
+/// A candidate pose refined by scan matching the endpoints on `field`.
+fn refine_on_scan(field: &LikelihoodField, endpoints: &Beams, pose: Pose2) -> Pose2 {
+    refine(
+        field,
+        &endpoints.x,
+        &endpoints.y,
+        pose,
+        &ScanMatchParams::default(),
+    )
+    .0
 }
 
 /// Whether the field's table must be rebuilt for scans of `range_max` (the same test as
