@@ -232,6 +232,9 @@ fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, 
     }) = args.action
     {
         let merged = sweep::merge(&out_dir, &shard_dirs)?;
+        if let Some(w) = sweep::drive::unlike_drives(&sweep::drive::per_cell(&merged)) {
+            eprintln!("note: {w}");
+        }
         eprintln!(
             "merged {} rows from {} shards into {}",
             merged.rows.len(),

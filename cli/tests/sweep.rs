@@ -422,3 +422,82 @@ fn an_unwritable_out_is_refused_before_validation_and_nothing_is_written() {
         "a refused sweep created its --out"
     );
 }
+
+/// `path`'s results.csv rewritten as the atrium before the distance columns wrote it: no
+/// `distance_m` and `route_completed`, in the header and in every row.
+fn strip_distance_columns(path: &Path) {
+    let csv = path.join("results.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let old: Vec<String> = text
+        .lines()
+        .map(|l| match l.starts_with('#') {
+            true => l.to_string(),
+            false => {
+                // The tiny sweep's fields hold no commas: drop the two before wall_s.
+                let mut f: Vec<&str> = l.split(',').collect();
+                let n = f.len();
+                f.drain(n - 3..n - 1);
+                f.join(",")
+            }
+        })
+        .collect();
+    assert!(
+        old[1].ends_with(",passed,failed_time_frac,wall_s"),
+        "{}",
+        old[1]
+    );
+    std::fs::write(&csv, old.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn older_results_are_refused_and_unlike_drives_are_named() {
+    let d = tmpdir("drives");
+    let out = |n: &str| d.join(n).to_str().unwrap().to_string();
+    // Trials of 1 s and 2 s drive unlike distances: the run and summary.md say so.
+    let sweep = tiny_sweep(&d, "duration_s = [1.0, 2.0]");
+    let o = atrium(&["sweep", &sweep, "--out", &out("a")]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("note: the cells drove unlike drives"), "{err}");
+    let summary = std::fs::read_to_string(d.join("a/summary.md")).unwrap();
+    assert!(
+        summary.contains("**Note:** the cells drove unlike drives"),
+        "{summary}"
+    );
+    assert_eq!(summary.matches("Distance driven per trial: ").count(), 2);
+    // Cells that drive alike get no note.
+    let o = atrium(&["sweep", &tiny_sweep(&d, AXES), "--out", &out("b")]);
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("unlike drives"));
+
+    // An older atrium's folder is neither resumed nor merged with a current one.
+    for shard in ["0/2", "1/2"] {
+        let name = format!("s{}", &shard[..1]);
+        ok(&atrium(&[
+            "sweep",
+            &sweep,
+            "--shard",
+            shard,
+            "--out",
+            &out(&name),
+        ]));
+    }
+    strip_distance_columns(&d.join("s1"));
+    bad(
+        &[
+            "sweep",
+            &sweep,
+            "--shard",
+            "1/2",
+            "--resume",
+            "--out",
+            &out("s1"),
+        ],
+        "written by an older atrium (no distance_m column)",
+    );
+    bad(
+        &["sweep", "merge", &out("m"), &out("s0"), &out("s1")],
+        "shards written by different atrium versions",
+    );
+    assert!(!d.join("m").exists(), "a refused merge wrote its folder");
+}

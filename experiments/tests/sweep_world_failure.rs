@@ -112,6 +112,46 @@ fn reduced_atrium_sweep_writes_failure_curves_over_generated_worlds() {
         assert!((0.0..=1.0).contains(&f), "{r:?}");
     }
 
+    // results.csv: every trial's drive, the same on each localizer's row, and the very drive
+    // a run of that trial's scenario and seed makes.
+    let mut drives = std::collections::BTreeMap::new();
+    for r in &results.rows {
+        let d = (
+            csv::distance_m(r).unwrap(),
+            csv::route_completed(r).unwrap(),
+        );
+        assert!(d.0 > 1.0, "{r:?}");
+        assert_eq!(*drives.entry((r.cell, r.trial)).or_insert(d), d, "{r:?}");
+    }
+    assert_eq!(drives.len(), 6);
+    let (cell, trial) = (2, 1);
+    let direct = sweep
+        .registry
+        .run(
+            &sweep.cell_scenario(cell).unwrap(),
+            atrium_scenarios::runner::RunOptions {
+                seed: Some(atrium_experiments::sweep::run::trial_seed(
+                    sweep.seed, cell, trial,
+                )),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    assert_eq!(
+        drives[&(cell, trial)],
+        (
+            format!("{:.3}", direct.distance_m).parse().unwrap(),
+            direct.route_completed
+        )
+    );
+    // summary.md says per cell how far its trials drove.
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert_eq!(
+        summary.matches("Distance driven per trial: ").count(),
+        3,
+        "{summary}"
+    );
+
     // sweep.json: the settings and a world hash per cell.
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();

@@ -30,33 +30,59 @@ pub fn fixed_columns() -> &'static [&'static str] {
     &FIXED_COLUMNS
 }
 
-/// The column a sweep writes between `passed` and `wall_s`: the fraction of the trial's
-/// scored instants with position error above the sweep's `[failure] error_threshold_m`
-/// (see `super::failure`). Files written before it existed lack it and are still read; a
-/// file has it when its column header does, and then every row has it.
-pub const FAILURE_COLUMN: &str = "failed_time_frac";
+/// Columns a sweep writes between `passed` and `wall_s`, in this order, each added by a
+/// later atrium than the one before it: a file holds the first [`Results::optional_columns`]
+/// of them (none, `failed_time_frac` alone, or all), as its column header says, and every row
+/// of it holds the same.
+/// - `failed_time_frac`: the fraction of the trial's scored instants with position error
+///   above the sweep's `[failure] error_threshold_m` (see `super::failure`);
+/// - `distance_m`: how far the robot drove in the trial (the same on each localizer's row);
+/// - `route_completed`: whether it reached the route's last waypoint before the trial ended.
+///
+/// The last two tell trials that end on the clock after different distances apart: errors
+/// depend on how far and where the robot drove, so a cell whose robot drove less (stopped by
+/// people, say) scores other errors for that alone (see `super::drive`).
+pub const OPTIONAL_COLUMNS: [&str; 3] = ["failed_time_frac", "distance_m", "route_completed"];
 
-/// The fixed columns of a file with ([`FAILURE_COLUMN`] before `wall_s`) or without it.
-pub fn columns(with_failure: bool) -> Vec<&'static str> {
+/// The optional columns this atrium writes (all of them).
+pub const CURRENT_OPTIONAL: usize = OPTIONAL_COLUMNS.len();
+
+/// The first of [`OPTIONAL_COLUMNS`].
+pub const FAILURE_COLUMN: &str = OPTIONAL_COLUMNS[0];
+
+/// The fixed columns of a file holding the first `optional` of [`OPTIONAL_COLUMNS`].
+pub fn columns(optional: usize) -> Vec<&'static str> {
     let (head, wall) = FIXED_COLUMNS.split_at(FIXED_COLUMNS.len() - 1);
     let mut c = head.to_vec();
-    if with_failure {
-        c.push(FAILURE_COLUMN);
-    }
+    c.extend(&OPTIONAL_COLUMNS[..optional.min(OPTIONAL_COLUMNS.len())]);
     c.extend(wall);
     c
 }
 
 /// Values per row (the fixed columns after cell, trial, seed and localizer) of a file
-/// without [`FAILURE_COLUMN`].
-pub const VALUES_WITHOUT_FAILURE: usize = FIXED_COLUMNS.len() - 4;
+/// without any of [`OPTIONAL_COLUMNS`].
+pub const VALUES_WITHOUT_OPTIONAL: usize = FIXED_COLUMNS.len() - 4;
+
+/// A row's value of optional column `k` (an index into [`OPTIONAL_COLUMNS`]), if its file
+/// has that column.
+fn optional_value(row: &Row, k: usize) -> Option<&str> {
+    let present = row.values.len().checked_sub(VALUES_WITHOUT_OPTIONAL)?;
+    (k < present).then(|| row.values[VALUES_WITHOUT_OPTIONAL - 1 + k].as_str())
+}
 
 /// A row's [`FAILURE_COLUMN`] value; `None` in a file without it or when never scored.
 pub fn failed_time_frac(row: &Row) -> Option<f64> {
-    match row.values.len() == VALUES_WITHOUT_FAILURE + 1 {
-        true => row.values[VALUES_WITHOUT_FAILURE - 1].parse().ok(),
-        false => None,
-    }
+    optional_value(row, 0).and_then(|v| v.parse().ok())
+}
+
+/// How far the robot drove in the row's trial, m; `None` in a file without the column.
+pub fn distance_m(row: &Row) -> Option<f64> {
+    optional_value(row, 1).and_then(|v| v.parse().ok())
+}
+
+/// Whether the row's trial completed its route; `None` in a file without the column.
+pub fn route_completed(row: &Row) -> Option<bool> {
+    optional_value(row, 2).and_then(|v| v.parse().ok())
 }
 
 /// One row: a trial's result for one localizer. Numbers are kept as the text written, so
@@ -68,8 +94,8 @@ pub struct Row {
     pub trial: usize,
     pub seed: u64,
     pub localizer: String,
-    /// min, median, rmse, p95, max, final, converged_after_s, passed, [failed_time_frac,]
-    /// wall_s.
+    /// min, median, rmse, p95, max, final, converged_after_s, passed, the file's
+    /// [`OPTIONAL_COLUMNS`], wall_s.
     pub values: Vec<String>,
 }
 
@@ -234,23 +260,24 @@ impl Layout {
     }
 }
 
-/// The two header lines of a results file without [`FAILURE_COLUMN`].
+/// The two header lines of a results file without any of [`OPTIONAL_COLUMNS`].
 pub fn header(hash: &str, name: &str, layout: Option<&Layout>, axis_paths: &[String]) -> String {
-    header_with(hash, name, layout, axis_paths, false)
+    header_with(hash, name, layout, axis_paths, 0)
 }
 
-/// The two header lines of a results file, with or without [`FAILURE_COLUMN`].
+/// The two header lines of a results file holding the first `optional` of
+/// [`OPTIONAL_COLUMNS`].
 pub fn header_with(
     hash: &str,
     name: &str,
     layout: Option<&Layout>,
     axis_paths: &[String],
-    with_failure: bool,
+    optional: usize,
 ) -> String {
     let cols: Vec<String> = axis_paths
         .iter()
         .map(|p| quote(p))
-        .chain(columns(with_failure).iter().map(|c| c.to_string()))
+        .chain(columns(optional).iter().map(|c| c.to_string()))
         .collect();
     // The name goes last and takes the rest of the line, so it may hold spaces.
     let size = layout.map_or(String::new(), |l| {
@@ -281,25 +308,33 @@ pub struct Results {
 }
 
 impl Results {
-    /// The header lines; with [`FAILURE_COLUMN`] when the rows have it (rows hold the
-    /// values as read or made, so the file written says what they hold). A file without
-    /// rows gets the header without it: a caller about to append rows with it writes
-    /// [`header_with`] itself.
+    /// The header lines, with the optional columns the rows hold (rows hold the values as
+    /// read or made, so the file written says what they hold). A file without rows gets the
+    /// header without them: a caller about to append rows with them writes [`header_with`]
+    /// itself.
     pub fn header(&self) -> String {
         header_with(
             &self.hash,
             &self.name,
             self.layout.as_ref(),
             &self.axis_paths,
-            self.has_failure_column(),
+            self.optional_columns(),
         )
+    }
+
+    /// How many of [`OPTIONAL_COLUMNS`] the rows hold (0 without rows).
+    pub fn optional_columns(&self) -> usize {
+        self.rows.first().map_or(0, |r| {
+            r.values
+                .len()
+                .saturating_sub(VALUES_WITHOUT_OPTIONAL)
+                .min(OPTIONAL_COLUMNS.len())
+        })
     }
 
     /// Whether the rows hold [`FAILURE_COLUMN`].
     pub fn has_failure_column(&self) -> bool {
-        self.rows
-            .first()
-            .is_some_and(|r| r.values.len() == VALUES_WITHOUT_FAILURE + 1)
+        self.optional_columns() >= 1
     }
 
     pub fn to_text(&self) -> String {
@@ -367,11 +402,14 @@ pub fn parse_results(text: &str) -> Result<Results, (usize, String)> {
     at = next;
     let ends_with =
         |fixed: &[&str]| cols.len() >= fixed.len() && cols[cols.len() - fixed.len()..] == *fixed;
-    let n_fixed = match (ends_with(&columns(true)), ends_with(fixed_columns())) {
-        (true, _) => columns(true).len(),
-        (false, true) => fixed_columns().len(),
-        (false, false) => return Err((2, "unexpected columns".into())),
-    };
+    // The longest set of optional columns the header ends with (an axis path may itself be
+    // named like a fixed column, so the longer reading wins).
+    let n_fixed = (0..=OPTIONAL_COLUMNS.len())
+        .rev()
+        .map(columns)
+        .find(|c| ends_with(c))
+        .map(|c| c.len())
+        .ok_or((2, "unexpected columns".to_string()))?;
     let axis_paths = cols[..cols.len() - n_fixed].to_vec();
     let mut rows = Vec::new();
     let mut dropped_partial = false;
@@ -556,8 +594,56 @@ mod tests {
         assert!(!back.has_failure_column());
         assert_eq!(failed_time_frac(&back.rows[0]), None);
         // A row of the other layout is refused.
-        let h = header_with("h", "n", None, &["a".into()], true);
+        let h = header_with("h", "n", None, &["a".into()], 1);
         let short = format!("{h}1,0,0,0,l,1,2,3,4,5,6,7,true,0.1\n");
+        assert_eq!(parse_results(&short).unwrap_err().0, 3);
+    }
+
+    #[test]
+    fn files_with_the_distance_columns_round_trip_and_older_ones_lack_them() {
+        let mut with = row(vec!["1".into()], "l");
+        for (k, v) in ["0.25", "41.5", "false"].into_iter().enumerate() {
+            with.values.insert(8 + k, v.into());
+        }
+        let results = Results {
+            hash: "h".into(),
+            name: "n".into(),
+            layout: None,
+            axis_paths: vec!["a".into()],
+            rows: vec![with.clone()],
+            dropped_partial: false,
+        };
+        let text = results.to_text();
+        assert!(
+            text.contains(",passed,failed_time_frac,distance_m,route_completed,wall_s\n"),
+            "{text}"
+        );
+        let back = parse_results(&text).unwrap();
+        assert_eq!(back.optional_columns(), CURRENT_OPTIONAL);
+        assert_eq!(back.rows, vec![with]);
+        let r = &back.rows[0];
+        assert_eq!(failed_time_frac(r), Some(0.25));
+        assert_eq!(distance_m(r), Some(41.5));
+        assert_eq!(route_completed(r), Some(false));
+        assert_eq!(back.to_text(), text);
+        // A file of the previous version (the failure column only) has no distance.
+        let mut older = row(vec!["1".into()], "l");
+        older.values.insert(8, "0.25".into());
+        let back = parse_results(
+            &Results {
+                rows: vec![older],
+                ..results.clone()
+            }
+            .to_text(),
+        )
+        .unwrap();
+        assert_eq!(back.optional_columns(), 1);
+        assert_eq!(failed_time_frac(&back.rows[0]), Some(0.25));
+        assert_eq!(distance_m(&back.rows[0]), None);
+        assert_eq!(route_completed(&back.rows[0]), None);
+        // A row of the older layout under the current header is refused.
+        let h = header_with("h", "n", None, &["a".into()], CURRENT_OPTIONAL);
+        let short = format!("{h}1,0,0,0,l,1,2,3,4,5,6,7,true,0.1,0.2\n");
         assert_eq!(parse_results(&short).unwrap_err().0, 3);
     }
 

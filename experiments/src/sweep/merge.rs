@@ -291,27 +291,21 @@ pub fn merge(out: &Path, shards: &[impl AsRef<Path>]) -> Result<Results, Scenari
             }
         }
         if let Some(first) = read.iter().find(|s| !s.results.rows.is_empty()) {
-            let (a, b) = (
-                first.results.has_failure_column(),
-                results.has_failure_column(),
-            );
+            let (a, b) = (first.results.optional_columns(), results.optional_columns());
             if !results.rows.is_empty() && a != b {
+                let names = |k: usize| match k {
+                    0 => "none of the optional columns".to_string(),
+                    k => csv::OPTIONAL_COLUMNS[..k].join(", "),
+                };
                 return Err(ScenarioError::field(
                     &path,
                     "columns",
                     format!(
-                        "{} the {} column and {} {}: shards written by different atrium \
-                         versions; rerun the older ones",
-                        match b {
-                            true => "has",
-                            false => "lacks",
-                        },
-                        csv::FAILURE_COLUMN,
+                        "has {} and {} has {}: shards written by different atrium versions; \
+                         rerun the older ones",
+                        names(b),
                         first.dir.display(),
-                        match a {
-                            true => "has it",
-                            false => "does not",
-                        }
+                        names(a)
                     ),
                 ));
             }

@@ -8,6 +8,7 @@
 
 pub mod bench;
 pub mod csv;
+pub mod drive;
 pub mod end_error;
 pub mod failure;
 pub mod format;

@@ -185,6 +185,8 @@ fn run_trial(
                         &l.samples,
                         sweep.failure.error_threshold_m,
                     )),
+                    format!("{:.3}", result.distance_m),
+                    result.route_completed.to_string(),
                     format!("{wall:.3}"),
                 ],
             }
@@ -356,15 +358,16 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
                 ));
             }
         }
-        // Rows without the failure column (written before it existed) cannot be continued
-        // with rows that have it.
-        if !existing.rows.is_empty() && !existing.has_failure_column() {
+        // Rows without the current optional columns (written before they existed) cannot be
+        // continued with rows that have them.
+        let held = existing.optional_columns();
+        if !existing.rows.is_empty() && held < csv::CURRENT_OPTIONAL {
             return Err(ScenarioError::field(
                 &csv_path,
                 "columns",
                 format!(
                     "written by an older atrium (no {} column): rerun this sweep into another --out",
-                    csv::FAILURE_COLUMN
+                    csv::OPTIONAL_COLUMNS[held]
                 ),
             ));
         }
@@ -392,9 +395,15 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
             layout: Some(layout),
             ..existing
         };
-        // Without rows, `to_text` would write the header without the failure column.
+        // Without rows, `to_text` would write the header without the optional columns.
         let text = match kept.rows.is_empty() {
-            true => csv::header_with(&kept.hash, &kept.name, Some(&layout), &axis_paths, true),
+            true => csv::header_with(
+                &kept.hash,
+                &kept.name,
+                Some(&layout),
+                &axis_paths,
+                csv::CURRENT_OPTIONAL,
+            ),
             false => kept.to_text(),
         };
         csv::write_atomic(&csv_path, &text)?;
@@ -402,7 +411,13 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         std::fs::create_dir_all(out).map_err(write_err(out))?;
         csv::write_atomic(
             &csv_path,
-            &csv::header_with(&sweep.hash, &sweep.name, Some(&layout), &axis_paths, true),
+            &csv::header_with(
+                &sweep.hash,
+                &sweep.name,
+                Some(&layout),
+                &axis_paths,
+                csv::CURRENT_OPTIONAL,
+            ),
         )?;
     }
     let sweep_json = serde_json::json!({
@@ -545,6 +560,9 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     )?;
     pictures.extend(curves.files);
     notes.extend(curves.notes);
+    notes.extend(super::drive::unlike_drives(&super::drive::per_cell(
+        &results,
+    )));
     Ok(SweepOutcome {
         ran: todo.len(),
         skipped,

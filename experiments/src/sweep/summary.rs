@@ -58,6 +58,10 @@ pub fn to_markdown(results: &Results) -> String {
         one_line(&results.name),
         results.hash
     );
+    let drives = super::drive::per_cell(results);
+    if let Some(w) = super::drive::unlike_drives(&drives) {
+        s.push_str(&format!("\n**Note:** {}\n", one_line(&w)));
+    }
     for (cell, locs) in table(results) {
         let p: Vec<String> = results
             .axis_paths
@@ -66,6 +70,9 @@ pub fn to_markdown(results: &Results) -> String {
             .map(|(k, v)| one_line(&format!("{k} = {v}")))
             .collect();
         s.push_str(&format!("\n## Cell {cell}: {}\n\n", p.join(", ")));
+        if let Some(d) = drives.get(&cell) {
+            s.push_str(&super::drive::markdown_line(d));
+        }
         s.push_str("| localizer | trials | min | median | max |\n|---|---:|---:|---:|---:|\n");
         for (name, (n, min, med, max)) in locs {
             s.push_str(&format!(
