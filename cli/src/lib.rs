@@ -396,6 +396,8 @@ fn run(
 }
 
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
+    // A bad cache cap is refused before anything runs, not found out at the first store.
+    atrium_scenarios::disk_cache::max_bytes_from_env().map_err(|e| BadInput(anyhow::anyhow!(e)))?;
     match cli.command {
         Some(Command::Check {
             scenario,

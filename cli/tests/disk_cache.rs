@@ -55,6 +55,7 @@ fn run(scenario: &Path, cache: &Path, extra: &[&str]) -> serde_json::Value {
         .args(extra)
         .env("ATRIUM_CACHE_DIR", cache)
         .env_remove("ATRIUM_NO_CACHE")
+        .env_remove("ATRIUM_CACHE_MAX_MB")
         .output()
         .expect("run atrium");
     assert!(
@@ -74,6 +75,19 @@ fn entries(cache: &Path) -> Vec<std::path::PathBuf> {
     }
 }
 
+/// A hit does not rewrite `entry` (a write renames a new file over it: another inode), but
+/// marks it recently used (its modification time), for the size cap.
+fn assert_read_not_rewritten(entry: &Path, before: &std::fs::Metadata) {
+    use std::os::unix::fs::MetadataExt;
+    let after = std::fs::metadata(entry).unwrap();
+    assert_eq!(
+        after.ino(),
+        before.ino(),
+        "a hit does not rewrite the entry"
+    );
+    assert!(after.modified().unwrap() >= before.modified().unwrap());
+}
+
 #[test]
 fn a_cache_hit_gives_the_results_of_a_rebuild() {
     let dir = tmpdir("disk-cache");
@@ -91,14 +105,10 @@ fn a_cache_hit_gives_the_results_of_a_rebuild() {
         .unwrap()
         .to_string_lossy()
         .starts_with("wifi_graph-"));
-    let written = std::fs::metadata(&stored[0]).unwrap().modified().unwrap();
+    let written = std::fs::metadata(&stored[0]).unwrap();
 
     let second = run(&scenario, &cache, &[]);
-    assert_eq!(
-        std::fs::metadata(&stored[0]).unwrap().modified().unwrap(),
-        written,
-        "a hit does not rewrite the entry"
-    );
+    assert_read_not_rewritten(&stored[0], &written);
     assert_eq!(first, uncached);
     assert_eq!(second, uncached);
 
@@ -119,6 +129,56 @@ fn a_cache_hit_gives_the_results_of_a_rebuild() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn the_size_cap_keeps_the_newest_entry_and_a_bad_cap_is_refused() {
+    let dir = tmpdir("disk-cache-cap");
+    let scenario = write_scenarios(&dir);
+    let cache = dir.join("cache");
+    let uncached = run(&scenario, &cache, &["--no-cache"]);
+    let atrium = |cap: &str| {
+        Command::new(env!("CARGO_BIN_EXE_atrium"))
+            .arg("run")
+            .arg(&scenario)
+            .arg("--json")
+            .env("ATRIUM_CACHE_DIR", &cache)
+            .env_remove("ATRIUM_NO_CACHE")
+            .env("ATRIUM_CACHE_MAX_MB", cap)
+            .output()
+            .expect("run atrium")
+    };
+    // Two surveys' graphs under a cap of 0 MB: only the one just written stays.
+    let out = atrium("0");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let first = entries(&cache);
+    assert_eq!(first.len(), 1, "{first:?}");
+    let survey = dir.join("survey.toml");
+    let text = std::fs::read_to_string(&survey).unwrap();
+    std::fs::write(&survey, text.replace("seed = 5", "seed = 6")).unwrap();
+    assert!(atrium("0").status.success());
+    let second = entries(&cache);
+    assert_eq!(second.len(), 1, "{second:?}");
+    assert_ne!(first, second, "the older survey's graph was evicted");
+    // Evicted or not, a run's results are the build's.
+    std::fs::write(&survey, text).unwrap();
+    assert_eq!(run(&scenario, &cache, &[]), uncached);
+    // A cap that is not a number of megabytes is bad input, refused before anything runs.
+    for bad in ["lots", "-5", "1.5"] {
+        let out = atrium(bad);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("ATRIUM_CACHE_MAX_MB") && err.contains(bad),
+            "{err}"
+        );
+        assert!(out.stdout.is_empty());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A run without the cache, one that stores `kind`'s single entry, one that reads it, and one
 /// after the entry was truncated: the same results.
 fn same_results_through_the_cache(scenario: &Path, cache: &Path, kind: &str) {
@@ -129,13 +189,9 @@ fn same_results_through_the_cache(scenario: &Path, cache: &Path, kind: &str) {
     assert_eq!(stored.len(), 1, "one {kind} stored: {stored:?}");
     let name = stored[0].file_name().unwrap().to_string_lossy().to_string();
     assert!(name.starts_with(&format!("{kind}-")), "{name}");
-    let written = std::fs::metadata(&stored[0]).unwrap().modified().unwrap();
+    let written = std::fs::metadata(&stored[0]).unwrap();
     let second = run(scenario, cache, &[]);
-    assert_eq!(
-        std::fs::metadata(&stored[0]).unwrap().modified().unwrap(),
-        written,
-        "a hit does not rewrite the entry"
-    );
+    assert_read_not_rewritten(&stored[0], &written);
     assert_eq!(first, uncached);
     assert_eq!(second, uncached);
     let whole = std::fs::read(&stored[0]).unwrap();

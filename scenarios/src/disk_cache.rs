@@ -33,6 +33,15 @@
 //! writes nothing into the home folder); else `$XDG_CACHE_HOME/atrium`, else
 //! `~/.cache/atrium` (an installed binary).
 //!
+//! **Size.** The folder is kept under a cap: `ATRIUM_CACHE_MAX_MB` megabytes (default
+//! [`DEFAULT_MAX_MB`]; `none` for no cap). After each write the least recently used entries
+//! (by modification time, which a hit refreshes) are deleted until the folder fits, the entry
+//! just written always kept; temporary files that killed writers left (older than an hour)
+//! go too. A sweep over generated worlds stores a likelihood field of tens of megabytes per
+//! world, which without a cap would pile up for good. Deleting is safe under concurrent
+//! processes: a reader holding the file keeps reading it, one opening it after sees a miss
+//! and rebuilds.
+//!
 //! **Bypass.** `--no-cache` on the commands that run scenarios ([`set_enabled`]`(false)`) or
 //! `ATRIUM_NO_CACHE=1`: nothing is read or written. A hit returns exactly the value a
 //! rebuild makes (the values are encoded losslessly), so no result depends on the cache.
@@ -48,6 +57,45 @@ use std::sync::OnceLock;
 pub const FORMAT_VERSION: u32 = 1;
 const MAGIC: &[u8; 8] = b"ATRCACH1";
 const HEADER: usize = 8 + 4 + 8 + 8 + 8;
+
+/// The cap on the cache folder's size when `ATRIUM_CACHE_MAX_MB` is not set, MB.
+pub const DEFAULT_MAX_MB: u64 = 2048;
+
+/// The environment variable naming the cap.
+pub const MAX_MB_VAR: &str = "ATRIUM_CACHE_MAX_MB";
+
+/// Temporary files older than this are a killed writer's remains.
+const STALE_TMP: std::time::Duration = std::time::Duration::from_secs(3600);
+
+/// The cap a value of [`MAX_MB_VAR`] gives, bytes: a whole number of megabytes, or `none`
+/// (no cap); unset or empty, [`DEFAULT_MAX_MB`].
+pub fn parse_max_mb(value: Option<&str>) -> Result<Option<u64>, String> {
+    let v = value.map(str::trim).unwrap_or("");
+    match v {
+        "" => Ok(Some(DEFAULT_MAX_MB << 20)),
+        "none" => Ok(None),
+        _ => v
+            .parse::<u64>()
+            .ok()
+            .and_then(|mb| mb.checked_mul(1 << 20))
+            .map(Some)
+            .ok_or_else(|| {
+                format!("{MAX_MB_VAR}: expected a whole number of megabytes or `none`, got {v:?}")
+            }),
+    }
+}
+
+/// The cap the environment sets (see [`parse_max_mb`]); the error names the variable. The
+/// CLI checks it before running anything; a cache asked to store with a bad value keeps the
+/// default.
+pub fn max_bytes_from_env() -> Result<Option<u64>, String> {
+    let v = std::env::var_os(MAX_MB_VAR);
+    match v.as_ref().map(|v| v.to_str()) {
+        None => parse_max_mb(None),
+        Some(Some(v)) => parse_max_mb(Some(v)),
+        Some(None) => Err(format!("{MAX_MB_VAR}: not valid UTF-8")),
+    }
+}
 
 /// 0: not set (the environment decides), 1: on, 2: off.
 static ENABLED: AtomicU8 = AtomicU8::new(0);
@@ -135,11 +183,23 @@ pub fn hash64(seed: u64, bytes: &[u8]) -> u64 {
 #[derive(Debug, Clone)]
 pub struct DiskCache {
     dir: PathBuf,
+    /// The folder's cap, bytes (`None`: no cap).
+    max_bytes: Option<u64>,
 }
 
 impl DiskCache {
+    /// The cache in `dir`, capped as the environment says (see [`max_bytes_from_env`]).
     pub fn at(dir: impl Into<PathBuf>) -> DiskCache {
-        DiskCache { dir: dir.into() }
+        let max_bytes = max_bytes_from_env().unwrap_or(Some(DEFAULT_MAX_MB << 20));
+        DiskCache::with_cap(dir, max_bytes)
+    }
+
+    /// The cache in `dir`, kept under `max_bytes` (`None`: no cap).
+    pub fn with_cap(dir: impl Into<PathBuf>, max_bytes: Option<u64>) -> DiskCache {
+        DiskCache {
+            dir: dir.into(),
+            max_bytes,
+        }
     }
 
     /// The process's cache: `None` when disabled or no folder can be named.
@@ -184,8 +244,14 @@ impl DiskCache {
         key: &[u8],
         decode: impl FnOnce(&[u8]) -> Option<T>,
     ) -> Option<T> {
-        let bytes = std::fs::read(self.entry_path(kind, key)).ok()?;
-        decode(decode_entry(&bytes, &Self::full_key(kind, key))?)
+        let path = self.entry_path(kind, key);
+        let bytes = std::fs::read(&path).ok()?;
+        let value = decode(decode_entry(&bytes, &Self::full_key(kind, key))?)?;
+        // Recently used: the last entries the cap evicts. Best effort (a read-only cache).
+        if let Ok(f) = std::fs::File::options().write(true).open(&path) {
+            let _ = f.set_modified(std::time::SystemTime::now());
+        }
+        Some(value)
     }
 
     /// Stores `payload` under `kind` and `key` (temporary file, fsync, rename).
@@ -221,7 +287,63 @@ impl DiskCache {
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);
         }
+        if result.is_ok() {
+            if let Some(cap) = self.max_bytes {
+                self.evict(cap, &path);
+            }
+        }
         result
+    }
+
+    /// Deletes the least recently used entries until the folder's entries fit in `cap`
+    /// bytes, never `keep` (the entry just written), and temporary files older than
+    /// [`STALE_TMP`]. Returns the entries deleted. Files another process deleted first are
+    /// skipped; nothing but entries and temporary files of this cache is touched.
+    pub fn evict(&self, cap: u64, keep: &Path) -> Vec<PathBuf> {
+        let Ok(dir) = std::fs::read_dir(&self.dir) else {
+            return Vec::new();
+        };
+        let now = std::time::SystemTime::now();
+        let mut entries = Vec::new();
+        let mut total = 0u64;
+        for e in dir.flatten() {
+            let (path, Ok(meta)) = (e.path(), e.metadata()) else {
+                continue;
+            };
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            let modified = meta.modified().unwrap_or(std::time::UNIX_EPOCH);
+            if name.starts_with('.') && name.ends_with(".tmp") {
+                if now
+                    .duration_since(modified)
+                    .is_ok_and(|age| age > STALE_TMP)
+                {
+                    let _ = std::fs::remove_file(&path);
+                }
+                continue;
+            }
+            if !meta.is_file() || !name.ends_with(".bin") {
+                continue;
+            }
+            total = total.saturating_add(meta.len());
+            if path != keep {
+                entries.push((modified, path, meta.len()));
+            }
+        }
+        entries.sort();
+        let mut deleted = Vec::new();
+        for (_, path, len) in entries {
+            if total <= cap {
+                break;
+            }
+            match std::fs::remove_file(&path) {
+                Ok(()) => deleted.push(path),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(_) => continue,
+            }
+            total -= len;
+        }
+        deleted
     }
 
     /// The cached value of `kind` under `key`, or `build()`'s, stored for later processes.
@@ -552,6 +674,71 @@ mod tests {
         );
         assert_eq!((v.unwrap(), built), (7, 1));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_cap_evicts_least_recently_used_entries_and_keeps_the_newest() {
+        let dir = temp_dir("evict");
+        let uncapped = DiskCache::with_cap(&dir, None);
+        let kb = vec![7u8; 1000];
+        let t0 = std::time::SystemTime::now() - std::time::Duration::from_secs(7200);
+        // Five entries of about 1.1 kB, written in order a..e, each a second after the last.
+        for (i, k) in ["a", "b", "c", "d", "e"].iter().enumerate() {
+            uncapped.put("t", k.as_bytes(), &kb).unwrap();
+            let f = std::fs::File::options()
+                .write(true)
+                .open(uncapped.entry_path("t", k.as_bytes()))
+                .unwrap();
+            f.set_modified(t0 + std::time::Duration::from_secs(i as u64))
+                .unwrap();
+        }
+        let size = std::fs::metadata(uncapped.entry_path("t", b"a"))
+            .unwrap()
+            .len();
+        // A hit makes `a` the most recently used.
+        assert!(uncapped.get("t", b"a").is_some());
+        // A stale temporary file and an unrelated file.
+        let tmp = dir.join(".t-x.bin.1-2-3.tmp");
+        std::fs::write(&tmp, b"torn").unwrap();
+        std::fs::File::options()
+            .write(true)
+            .open(&tmp)
+            .unwrap()
+            .set_modified(t0)
+            .unwrap();
+        std::fs::write(dir.join("notes.txt"), vec![0u8; 100_000]).unwrap();
+        // Room for three entries: writing `f` evicts b, c and d (the least recently used).
+        let capped = DiskCache::with_cap(&dir, Some(3 * size + size / 2));
+        capped.put("t", b"f", &kb).unwrap();
+        let present = |k: &str| capped.entry_path("t", k.as_bytes()).exists();
+        assert_eq!(
+            ["a", "b", "c", "d", "e", "f"].map(present),
+            [true, false, false, false, true, true]
+        );
+        assert!(!tmp.exists(), "a stale temporary file is removed");
+        assert!(
+            dir.join("notes.txt").exists(),
+            "only the cache's files are touched"
+        );
+        // An entry larger than the cap is still kept: it is the one just written.
+        let tiny = DiskCache::with_cap(&dir, Some(1));
+        tiny.put("t", b"g", &kb).unwrap();
+        assert!(tiny.get("t", b"g").is_some());
+        assert!(!present("a") && !present("e") && !present("f"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_cap_is_megabytes_or_none() {
+        assert_eq!(parse_max_mb(None), Ok(Some(DEFAULT_MAX_MB << 20)));
+        assert_eq!(parse_max_mb(Some(" ")), Ok(Some(DEFAULT_MAX_MB << 20)));
+        assert_eq!(parse_max_mb(Some("64")), Ok(Some(64 << 20)));
+        assert_eq!(parse_max_mb(Some("0")), Ok(Some(0)));
+        assert_eq!(parse_max_mb(Some("none")), Ok(None));
+        for bad in ["-1", "1.5", "lots", "99999999999999999999"] {
+            let e = parse_max_mb(Some(bad)).unwrap_err();
+            assert!(e.contains(MAX_MB_VAR) && e.contains(bad), "{e}");
+        }
     }
 
     #[test]
