@@ -636,15 +636,17 @@ impl Mcl {
             resolution: self.grid_resolution,
             width: self.grid_width,
         };
-        let poses = scan_matched_poses(
-            &self.field,
+        let poses: Vec<Pose2> = scan_candidates(
             &coarse,
             &endpoints,
             &draw,
             self.params.global_samples,
             self.params.max_particles,
             &mut self.core.rng,
-        );
+        )
+        .into_iter()
+        .map(|p| refine_on_scan(&self.field, &endpoints, p))
+        .collect();
         for (i, q) in poses.iter().enumerate() {
             self.core.set.set_pose(i, *q);
         }
@@ -797,25 +799,9 @@ impl PoseDraw<'_> {
 }
 
 /// Poses drawn from a scan (`endpoints`, in the robot frame): `samples` uniform poses, the
-/// `keep` whose endpoints have the least truncated cost on `coarse`, each refined by scan
-/// matching on `field`. What `global_samples` seeds a belief with and `inject_from_scan`
+/// `keep` whose endpoints have the least truncated cost on `coarse`, to be refined by
+/// [`refine_on_scan`]. What `global_samples` seeds a belief with and `inject_from_scan`
 /// injects ([Thrun 2001]'s dual proposal).
-fn scan_matched_poses<R: Rng + ?Sized>(
-    field: &LikelihoodField,
-    coarse: &CoarseDistance,
-    endpoints: &Beams,
-    draw: &PoseDraw,
-    samples: usize,
-    keep: usize,
-    rng: &mut R,
-) -> Vec<Pose2> {
-    scan_candidates(coarse, endpoints, draw, samples, keep, rng)
-        .into_iter()
-        .map(|p| refine_on_scan(field, endpoints, p))
-        .collect()
-}
-
-/// The unrefined candidates of [`scan_matched_poses`], in its order.
 fn scan_candidates<R: Rng + ?Sized>(
     coarse: &CoarseDistance,
     endpoints: &Beams,

@@ -493,6 +493,18 @@ mod tests {
         }
     }
 
+    /// A file with axis `a` holding `row` alone.
+    fn one_row(row: Row) -> Results {
+        Results {
+            hash: "h".into(),
+            name: "n".into(),
+            layout: None,
+            axis_paths: vec!["a".into()],
+            rows: vec![row],
+            dropped_partial: false,
+        }
+    }
+
     #[test]
     fn rows_round_trip_with_quoting() {
         let r = row(vec!["\"a,b\"".into(), "4.5".into()], "mcl");
@@ -571,14 +583,7 @@ mod tests {
     fn files_with_and_without_the_failure_column_round_trip() {
         let mut with = row(vec!["1".into()], "l");
         with.values.insert(8, "0.25".into());
-        let results = Results {
-            hash: "h".into(),
-            name: "n".into(),
-            layout: None,
-            axis_paths: vec!["a".into()],
-            rows: vec![with.clone()],
-            dropped_partial: false,
-        };
+        let results = one_row(with.clone());
         let text = results.to_text();
         assert!(text.contains(",passed,failed_time_frac,wall_s\n"), "{text}");
         let back = parse_results(&text).unwrap();
@@ -605,14 +610,7 @@ mod tests {
         for (k, v) in ["0.25", "41.5", "false"].into_iter().enumerate() {
             with.values.insert(8 + k, v.into());
         }
-        let results = Results {
-            hash: "h".into(),
-            name: "n".into(),
-            layout: None,
-            axis_paths: vec!["a".into()],
-            rows: vec![with.clone()],
-            dropped_partial: false,
-        };
+        let results = one_row(with.clone());
         let text = results.to_text();
         assert!(
             text.contains(",passed,failed_time_frac,distance_m,route_completed,wall_s\n"),
@@ -629,14 +627,7 @@ mod tests {
         // A file of the previous version (the failure column only) has no distance.
         let mut older = row(vec!["1".into()], "l");
         older.values.insert(8, "0.25".into());
-        let back = parse_results(
-            &Results {
-                rows: vec![older],
-                ..results.clone()
-            }
-            .to_text(),
-        )
-        .unwrap();
+        let back = parse_results(&one_row(older).to_text()).unwrap();
         assert_eq!(back.optional_columns(), 1);
         assert_eq!(failed_time_frac(&back.rows[0]), Some(0.25));
         assert_eq!(distance_m(&back.rows[0]), None);
