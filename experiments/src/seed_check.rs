@@ -64,6 +64,30 @@ pub struct SeedOutcome {
     pub passed: bool,
     /// The failed expectations, as `localizer: metric value vs bound`.
     pub failures: Vec<String>,
+    /// How far the robot drove, m, and whether it reached the route's end.
+    pub distance_m: f64,
+    pub route_completed: bool,
+}
+
+/// A seed whose robot drove less than this fraction of the seeds' median distance is named
+/// in the report: its expectations were judged on part of the route only.
+pub const SHORT_DRIVE: f64 = 0.9;
+
+/// The seeds (with their distances) that drove less than [`SHORT_DRIVE`] of the median
+/// distance over `outcomes`, and that median.
+pub fn short_drives(outcomes: &[SeedOutcome]) -> (f64, Vec<(u64, f64)>) {
+    let mut d: Vec<f64> = outcomes.iter().map(|o| o.distance_m).collect();
+    d.sort_by(f64::total_cmp);
+    if d.is_empty() {
+        return (0.0, Vec::new());
+    }
+    let median = atrium_scenarios::metrics::quantile_sorted(&d, 0.5);
+    let short = outcomes
+        .iter()
+        .filter(|o| o.distance_m < SHORT_DRIVE * median)
+        .map(|o| (o.seed, o.distance_m))
+        .collect();
+    (median, short)
 }
 
 /// One expectation over all seeds.
@@ -143,6 +167,23 @@ impl SeedCheck {
                 num(e.max)
             );
         }
+        let (median, short) = short_drives(&self.outcomes);
+        if !self.outcomes.is_empty() {
+            let done = self.outcomes.iter().filter(|o| o.route_completed).count();
+            let _ = writeln!(
+                s,
+                "\ndistance driven: {median:.1} m median over the seeds; route completed on {done} of {}",
+                self.outcomes.len()
+            );
+        }
+        for (seed, d) in short {
+            let _ = writeln!(
+                s,
+                "note: seed {seed} drove {d:.1} m, less than {:.0} % of the median: its expectations \
+                 were judged on part of the route only",
+                100.0 * SHORT_DRIVE
+            );
+        }
         for o in self.outcomes.iter().filter(|o| !o.passed) {
             let _ = writeln!(s, "\nseed {} failed: {}", o.seed, o.failures.join("; "));
         }
@@ -216,6 +257,8 @@ pub fn check_seeds(
             seed: run.seed,
             passed: run.passed(),
             failures,
+            distance_m: run.distance_m,
+            route_completed: run.route_completed,
         });
     }
     let expectations = spreads
@@ -264,6 +307,44 @@ pub fn check_seeds(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seeds_that_drove_short_are_named() {
+        let outcome = |seed: u64, d: f64| SeedOutcome {
+            seed,
+            passed: true,
+            failures: Vec::new(),
+            distance_m: d,
+            route_completed: false,
+        };
+        let outcomes: Vec<SeedOutcome> = [40.0, 41.0, 12.0, 40.5, 36.0, 37.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &d)| outcome(k as u64 + 1, d))
+            .collect();
+        // Median 38.5 m: 90 % of it is 34.65 m; only seed 3 is below.
+        assert_eq!(short_drives(&outcomes), (38.5, vec![(3, 12.0)]));
+        let check = SeedCheck {
+            scenario: "s".into(),
+            seeds: (1..=6).collect(),
+            min_pass: 5,
+            outcomes,
+            expectations: Vec::new(),
+        };
+        let text = check.to_text();
+        assert!(
+            text.contains(
+                "distance driven: 38.5 m median over the seeds; route completed on 0 of 6"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains("note: seed 3 drove 12.0 m, less than 90 % of the median"),
+            "{text}"
+        );
+        assert_eq!(check.to_json()["outcomes"][2]["distance_m"], 12.0);
+        assert_eq!(short_drives(&[]), (0.0, Vec::new()));
+    }
 
     #[test]
     fn seed_ranges_are_inclusive_and_checked() {
