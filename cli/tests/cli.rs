@@ -360,6 +360,10 @@ fn check_runs_every_seed_and_exits_by_the_pass_count() {
     assert_eq!(v["passed_seeds"], 3);
     assert_eq!(v["seeds"], serde_json::json!([1, 2, 3]));
     assert_eq!(v["expectations"][0]["held"], 3);
+    for o in v["outcomes"].as_array().unwrap() {
+        assert!(o["distance_m"].as_f64().unwrap() > 0.5, "{o}");
+        assert!(o["route_completed"].is_boolean(), "{o}");
+    }
     // A bound nothing meets fails on every seed: exit 1, each seed's failure listed.
     let tight = variant("check_tight", "median_max = 0.2", "median_max = 0.0001");
     let o = atrium(&["check", tight.to_str().unwrap(), "--seeds", "1,2"]);
@@ -373,6 +377,7 @@ fn check_runs_every_seed_and_exits_by_the_pass_count() {
         text.contains("seed 2 failed: mcl: position_error.median"),
         "{text}"
     );
+    assert!(text.contains("distance driven: "), "{text}");
     // A claim dead reckoning meets too is no claim: the baseline check fails it.
     let weak = variant(
         "check_weak",
