@@ -46,16 +46,22 @@ fn write_scenarios(dir: &Path) -> std::path::PathBuf {
     run
 }
 
-/// `atrium run --json` with the cache in `cache`; the JSON without its timing.
-fn run(scenario: &Path, cache: &Path, extra: &[&str]) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_atrium"))
-        .arg("run")
+/// `atrium run SCENARIO --json` with the cache in `cache`, on, with the default cap.
+fn run_command(scenario: &Path, cache: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_atrium"));
+    c.arg("run")
         .arg(scenario)
         .arg("--json")
-        .args(extra)
         .env("ATRIUM_CACHE_DIR", cache)
         .env_remove("ATRIUM_NO_CACHE")
-        .env_remove("ATRIUM_CACHE_MAX_MB")
+        .env_remove("ATRIUM_CACHE_MAX_MB");
+    c
+}
+
+/// `atrium run --json` with the cache in `cache`; the JSON without its timing.
+fn run(scenario: &Path, cache: &Path, extra: &[&str]) -> serde_json::Value {
+    let out = run_command(scenario, cache)
+        .args(extra)
         .output()
         .expect("run atrium");
     assert!(
@@ -136,12 +142,7 @@ fn the_size_cap_keeps_the_newest_entry_and_a_bad_cap_is_refused() {
     let cache = dir.join("cache");
     let uncached = run(&scenario, &cache, &["--no-cache"]);
     let atrium = |cap: &str| {
-        Command::new(env!("CARGO_BIN_EXE_atrium"))
-            .arg("run")
-            .arg(&scenario)
-            .arg("--json")
-            .env("ATRIUM_CACHE_DIR", &cache)
-            .env_remove("ATRIUM_NO_CACHE")
+        run_command(&scenario, &cache)
             .env("ATRIUM_CACHE_MAX_MB", cap)
             .output()
             .expect("run atrium")

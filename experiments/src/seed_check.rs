@@ -3,6 +3,7 @@
 //! came to the bound. A claim that holds on the bundled seed only is luck; the check passes
 //! when the whole scenario passes on at least `min_pass` seeds (by default 9 of 10).
 
+use atrium_scenarios::metrics::ErrorStats;
 use atrium_scenarios::verdict::Bound;
 use atrium_scenarios::{LocalizerRegistry, RunOptions, Scenario, ScenarioError};
 use rayon::prelude::*;
@@ -76,12 +77,10 @@ pub const SHORT_DRIVE: f64 = 0.9;
 /// The seeds (with their distances) that drove less than [`SHORT_DRIVE`] of the median
 /// distance over `outcomes`, and that median.
 pub fn short_drives(outcomes: &[SeedOutcome]) -> (f64, Vec<(u64, f64)>) {
-    let mut d: Vec<f64> = outcomes.iter().map(|o| o.distance_m).collect();
-    d.sort_by(f64::total_cmp);
-    if d.is_empty() {
+    let Some(stats) = ErrorStats::of(outcomes.iter().map(|o| o.distance_m)) else {
         return (0.0, Vec::new());
-    }
-    let median = atrium_scenarios::metrics::quantile_sorted(&d, 0.5);
+    };
+    let median = stats.median;
     let short = outcomes
         .iter()
         .filter(|o| o.distance_m < SHORT_DRIVE * median)

@@ -9,7 +9,7 @@
 //! cells drove unlike drives.
 
 use super::csv::{self, Results};
-use atrium_scenarios::metrics::quantile_sorted;
+use atrium_scenarios::metrics::ErrorStats;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Cells whose median distances differ by more than this fraction of the larger are called
@@ -46,16 +46,16 @@ pub fn per_cell(results: &Results) -> BTreeMap<usize, CellDrive> {
     }
     trials
         .into_iter()
-        .map(|(cell, (mut d, completed))| {
-            d.sort_by(f64::total_cmp);
+        .filter_map(|(cell, (d, completed))| {
+            let s = ErrorStats::of(d)?;
             let drive = CellDrive {
-                trials: d.len(),
-                min_m: d[0],
-                median_m: quantile_sorted(&d, 0.5),
-                max_m: d[d.len() - 1],
+                trials: s.samples,
+                min_m: s.min,
+                median_m: s.median,
+                max_m: s.max,
                 completed,
             };
-            (cell, drive)
+            Some((cell, drive))
         })
         .collect()
 }
