@@ -5,7 +5,7 @@
 //! `summary.md` carries this table for every cell, after the table of per-trial medians.
 
 use super::csv::{fixed_columns, Results, Row};
-use atrium_scenarios::metrics::quantile_sorted;
+use atrium_scenarios::metrics::ErrorStats;
 use std::collections::BTreeMap;
 
 /// Min / median / max of the end errors of one localizer in one cell, m.
@@ -43,15 +43,15 @@ pub fn table(results: &Results) -> BTreeMap<usize, BTreeMap<String, EndErrorStat
         .map(|(cell, locs)| {
             let locs = locs
                 .into_iter()
-                .map(|(name, mut v)| {
-                    v.sort_by(f64::total_cmp);
+                .filter_map(|(name, v)| {
+                    let s = ErrorStats::of(v)?;
                     let s = EndErrorStats {
-                        trials: v.len(),
-                        min: v[0],
-                        median: quantile_sorted(&v, 0.5),
-                        max: v[v.len() - 1],
+                        trials: s.samples,
+                        min: s.min,
+                        median: s.median,
+                        max: s.max,
                     };
-                    (name, s)
+                    Some((name, s))
                 })
                 .collect();
             (cell, locs)

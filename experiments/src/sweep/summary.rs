@@ -2,7 +2,7 @@
 //! sensor) per cell, over the per-trial median position errors.
 
 use super::csv::Results;
-use atrium_scenarios::metrics::quantile_sorted;
+use atrium_scenarios::metrics::ErrorStats;
 use std::collections::BTreeMap;
 
 /// (trials, min, median, max) of the per-trial median errors of one localizer in one cell.
@@ -26,10 +26,9 @@ pub fn table(results: &Results) -> BTreeMap<usize, BTreeMap<String, CellStats>> 
         .map(|(cell, locs)| {
             let locs = locs
                 .into_iter()
-                .map(|(name, mut v)| {
-                    v.sort_by(f64::total_cmp);
-                    let s = (v.len(), v[0], quantile_sorted(&v, 0.5), v[v.len() - 1]);
-                    (name, s)
+                .filter_map(|(name, v)| {
+                    let s = ErrorStats::of(v)?;
+                    Some((name, (s.samples, s.min, s.median, s.max)))
                 })
                 .collect();
             (cell, locs)
