@@ -8,6 +8,9 @@
 //! [`vertical_planes_on_floor`] then keeps the points of vertical planes and projects them to
 //! the floor plane (§2.2, last paragraph: "non-vertical planes are ignored, and the remaining
 //! planes are matched to a 2D vector map"), which is what the depth CGR localizer consumes.
+//!
+//! Copies of a plane filter (a chooser's member copied when it re-seeds it) share their last
+//! frame's result: see [`LastFrame`].
 
 use crate::error::LocalizationError;
 use crate::limits::{
@@ -18,6 +21,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
+use std::sync::{Arc, Mutex};
 
 /// FSPF parameters (Table 1 of 004). Every field has the paper's value as default.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -135,6 +139,59 @@ pub struct PlaneFilter {
     local: Vec<[f64; 3]>,
     inlier: Vec<bool>,
     neighborhoods: usize,
+    /// Shared by this filter and its clones.
+    last: Arc<Mutex<LastFrame>>,
+}
+
+/// The last frame a filter or one of its clones filtered, what went in and what came out.
+///
+/// FSPF's output is a function of its parameters, the image and its random stream's state,
+/// and nothing else. A clone starts with its original's stream, and every copy of a chooser's
+/// member is given the same images in the same order, so copies filter the same frame from
+/// the same state and get the same result: the first to filter a frame computes it, the
+/// others (holding equal inputs, compared bit for bit) take it and the stream's state after
+/// it. What each copy sees is exactly what it would have computed. A filter without clones
+/// keeps no record.
+#[derive(Debug, Default)]
+struct LastFrame {
+    valid: bool,
+    params: Option<FspfParams>,
+    rng_before: Option<ChaCha8Rng>,
+    rng_after: Option<ChaCha8Rng>,
+    /// The image's size and intrinsics (width, height, fx, fy, cx, cy), as bits.
+    geometry: [u64; 6],
+    depth_bits: Vec<u32>,
+    points: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    outliers: Vec<[f64; 3]>,
+    neighborhoods: usize,
+}
+
+fn geometry_bits(img: &DepthImage) -> [u64; 6] {
+    [
+        img.width as u64,
+        img.height as u64,
+        img.fx.to_bits(),
+        img.fy.to_bits(),
+        img.cx.to_bits(),
+        img.cy.to_bits(),
+    ]
+}
+
+impl LastFrame {
+    /// Whether this record is the frame `img` filtered with `params` from `rng`.
+    fn matches(&self, params: &FspfParams, rng: &ChaCha8Rng, img: &DepthImage) -> bool {
+        self.valid
+            && self.params.as_ref() == Some(params)
+            && self.rng_before.as_ref() == Some(rng)
+            && self.geometry == geometry_bits(img)
+            && self.depth_bits.len() == img.depth.len()
+            && self
+                .depth_bits
+                .iter()
+                .zip(&img.depth)
+                .all(|(a, b)| *a == b.to_bits())
+    }
 }
 
 /// Camera-frame point of pixel (u, v) at depth d (pinhole; see `robots::DepthImage`).
@@ -170,6 +227,7 @@ impl PlaneFilter {
             local: Vec::with_capacity(params.l),
             inlier: Vec::with_capacity(params.l),
             neighborhoods: 0,
+            last: Arc::default(),
             params,
         })
     }
@@ -197,6 +255,70 @@ impl PlaneFilter {
                 img.fy
             )));
         }
+        let shared = Arc::strong_count(&self.last) > 1;
+        if shared && self.take_shared(img) {
+            return Ok(self.output());
+        }
+        let rng_before = shared.then(|| self.rng.clone());
+        self.sample_planes(img);
+        if let Some(rng_before) = rng_before {
+            self.share(img, rng_before);
+        }
+        Ok(self.output())
+    }
+
+    fn output(&self) -> PlaneFiltered<'_> {
+        PlaneFiltered {
+            points: &self.points,
+            normals: &self.normals,
+            outliers: &self.outliers,
+            neighborhoods: self.neighborhoods,
+        }
+    }
+
+    /// Takes the result a clone computed for this very frame and state, if there is one.
+    fn take_shared(&mut self, img: &DepthImage) -> bool {
+        let last = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        if !last.matches(&self.params, &self.rng, img) {
+            return false;
+        }
+        let Some(after) = &last.rng_after else {
+            return false;
+        };
+        self.rng = after.clone();
+        self.points.clear();
+        self.points.extend_from_slice(&last.points);
+        self.normals.clear();
+        self.normals.extend_from_slice(&last.normals);
+        self.outliers.clear();
+        self.outliers.extend_from_slice(&last.outliers);
+        self.neighborhoods = last.neighborhoods;
+        true
+    }
+
+    /// Records this frame's inputs and result for the clones (buffers reused).
+    fn share(&self, img: &DepthImage, rng_before: ChaCha8Rng) {
+        let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        last.valid = true;
+        last.params = Some(self.params);
+        last.rng_before = Some(rng_before);
+        last.rng_after = Some(self.rng.clone());
+        last.geometry = geometry_bits(img);
+        last.depth_bits.clear();
+        last.depth_bits
+            .extend(img.depth.iter().map(|d| d.to_bits()));
+        last.points.clear();
+        last.points.extend_from_slice(&self.points);
+        last.normals.clear();
+        last.normals.extend_from_slice(&self.normals);
+        last.outliers.clear();
+        last.outliers.extend_from_slice(&self.outliers);
+        last.neighborhoods = self.neighborhoods;
+    }
+
+    /// Lines 1–24 of Algorithm 1 on a validated image, into the filter's buffers.
+    fn sample_planes(&mut self, img: &DepthImage) {
+        let p = self.params;
         self.points.clear();
         self.normals.clear();
         self.outliers.clear();
@@ -269,12 +391,6 @@ impl PlaneFilter {
             }
         }
         self.neighborhoods = k;
-        Ok(PlaneFiltered {
-            points: &self.points,
-            normals: &self.normals,
-            outliers: &self.outliers,
-            neighborhoods: k,
-        })
     }
 }
 
@@ -422,6 +538,71 @@ mod tests {
 
     fn plane_distance(pl: &Plane, p: &[f64; 3]) -> f64 {
         (pl.n[0] * p[0] + pl.n[1] * p[1] + pl.n[2] * p[2] - pl.c).abs()
+    }
+
+    /// Points, normals and outliers as bits, and the neighbourhoods sampled.
+    type Bits = (Vec<[u64; 3]>, Vec<[u64; 3]>, Vec<[u64; 3]>, usize);
+
+    /// One frame's output, owned, bit for bit.
+    fn owned(out: &PlaneFiltered<'_>) -> Bits {
+        let bits = |v: &[[f64; 3]]| {
+            v.iter()
+                .map(|p| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()])
+                .collect::<Vec<_>>()
+        };
+        (
+            bits(out.points),
+            bits(out.normals),
+            bits(out.outliers),
+            out.neighborhoods,
+        )
+    }
+
+    #[test]
+    fn clones_share_a_frame_only_when_it_is_theirs_bit_for_bit() {
+        // Three frames, one with pixels of NaN depth (never equal as floats, equal as bits).
+        let planes = scene();
+        let mut frames = vec![synthetic(&planes, 1), synthetic(&planes, 2)];
+        let mut holes = synthetic(&planes, 3);
+        for d in holes.depth.iter_mut().step_by(7) {
+            *d = f32::NAN;
+        }
+        frames.push(holes);
+        let params = FspfParams {
+            n_max: 500,
+            ..FspfParams::default()
+        };
+        // A private filter per stream: what each clone must see.
+        let mut alone = PlaneFilter::new(params, 9).unwrap();
+        let mut original = PlaneFilter::new(params, 9).unwrap();
+        let first = owned(&original.filter(&frames[0]).unwrap());
+        assert_eq!(first, owned(&alone.filter(&frames[0]).unwrap()));
+        let mut copy = original.clone();
+        let mut other_copy = original.clone();
+        for f in &frames[1..] {
+            let expected = owned(&alone.filter(f).unwrap());
+            assert_eq!(owned(&original.filter(f).unwrap()), expected);
+            // Served from the record: same output and same stream afterwards.
+            assert_eq!(owned(&copy.filter(f).unwrap()), expected);
+            assert!(copy.rng == alone.rng);
+        }
+        // A copy that missed frames is at another state: it computes its own result, which is
+        // what a private filter at that state gives, not the record's.
+        let mut lagging = PlaneFilter::new(params, 9).unwrap();
+        lagging.filter(&frames[0]).unwrap();
+        let behind = owned(&lagging.filter(&frames[2]).unwrap());
+        let got = owned(&other_copy.filter(&frames[2]).unwrap());
+        assert_eq!(got, behind);
+        assert_ne!(got, owned(&original.filter(&frames[2]).unwrap()));
+        // Another image at the same state is not served the record either.
+        let mut a = PlaneFilter::new(params, 4).unwrap();
+        let mut b = a.clone();
+        let mut reference = PlaneFilter::new(params, 4).unwrap();
+        a.filter(&frames[0]).unwrap();
+        assert_eq!(
+            owned(&b.filter(&frames[1]).unwrap()),
+            owned(&reference.filter(&frames[1]).unwrap())
+        );
     }
 
     #[test]
