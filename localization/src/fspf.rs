@@ -132,15 +132,47 @@ pub struct PlaneFiltered<'a> {
 pub struct PlaneFilter {
     params: FspfParams,
     rng: ChaCha8Rng,
-    points: Vec<[f64; 3]>,
-    normals: Vec<[f64; 3]>,
-    outliers: Vec<[f64; 3]>,
+    out: Output,
     /// Valid local samples of the current neighbourhood, and which are inliers.
     local: Vec<[f64; 3]>,
     inlier: Vec<bool>,
-    neighborhoods: usize,
     /// Shared by this filter and its clones.
     last: Arc<Mutex<LastFrame>>,
+}
+
+/// What one frame gave: P, R and O of Algorithm 1, and the neighbourhoods sampled.
+#[derive(Debug, Clone, Default)]
+struct Output {
+    points: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    outliers: Vec<[f64; 3]>,
+    neighborhoods: usize,
+}
+
+impl Output {
+    fn with_capacity(points: usize) -> Output {
+        Output {
+            points: Vec::with_capacity(points),
+            normals: Vec::with_capacity(points),
+            ..Output::default()
+        }
+    }
+
+    fn clear(&mut self) {
+        self.points.clear();
+        self.normals.clear();
+        self.outliers.clear();
+        self.neighborhoods = 0;
+    }
+
+    /// Becomes a copy of `other`, in its own buffers (no allocation once they have grown).
+    fn copy_from(&mut self, other: &Output) {
+        self.clear();
+        self.points.extend_from_slice(&other.points);
+        self.normals.extend_from_slice(&other.normals);
+        self.outliers.extend_from_slice(&other.outliers);
+        self.neighborhoods = other.neighborhoods;
+    }
 }
 
 /// The last frame a filter or one of its clones filtered, what went in and what came out.
@@ -161,10 +193,7 @@ struct LastFrame {
     /// The image's size and intrinsics (width, height, fx, fy, cx, cy), as bits.
     geometry: [u64; 6],
     depth_bits: Vec<u32>,
-    points: Vec<[f64; 3]>,
-    normals: Vec<[f64; 3]>,
-    outliers: Vec<[f64; 3]>,
-    neighborhoods: usize,
+    out: Output,
 }
 
 fn geometry_bits(img: &DepthImage) -> [u64; 6] {
@@ -221,12 +250,9 @@ impl PlaneFilter {
             .map_err(|m| LocalizationError::InvalidParameter(format!("fspf: {m}")))?;
         Ok(Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
-            points: Vec::with_capacity(params.n_max + params.l),
-            normals: Vec::with_capacity(params.n_max + params.l),
-            outliers: Vec::new(),
+            out: Output::with_capacity(params.n_max + params.l),
             local: Vec::with_capacity(params.l),
             inlier: Vec::with_capacity(params.l),
-            neighborhoods: 0,
             last: Arc::default(),
             params,
         })
@@ -269,10 +295,10 @@ impl PlaneFilter {
 
     fn output(&self) -> PlaneFiltered<'_> {
         PlaneFiltered {
-            points: &self.points,
-            normals: &self.normals,
-            outliers: &self.outliers,
-            neighborhoods: self.neighborhoods,
+            points: &self.out.points,
+            normals: &self.out.normals,
+            outliers: &self.out.outliers,
+            neighborhoods: self.out.neighborhoods,
         }
     }
 
@@ -286,13 +312,7 @@ impl PlaneFilter {
             return false;
         };
         self.rng = after.clone();
-        self.points.clear();
-        self.points.extend_from_slice(&last.points);
-        self.normals.clear();
-        self.normals.extend_from_slice(&last.normals);
-        self.outliers.clear();
-        self.outliers.extend_from_slice(&last.outliers);
-        self.neighborhoods = last.neighborhoods;
+        self.out.copy_from(&last.out);
         true
     }
 
@@ -307,21 +327,13 @@ impl PlaneFilter {
         last.depth_bits.clear();
         last.depth_bits
             .extend(img.depth.iter().map(|d| d.to_bits()));
-        last.points.clear();
-        last.points.extend_from_slice(&self.points);
-        last.normals.clear();
-        last.normals.extend_from_slice(&self.normals);
-        last.outliers.clear();
-        last.outliers.extend_from_slice(&self.outliers);
-        last.neighborhoods = self.neighborhoods;
+        last.out.copy_from(&self.out);
     }
 
     /// Lines 1–24 of Algorithm 1 on a validated image, into the filter's buffers.
     fn sample_planes(&mut self, img: &DepthImage) {
         let p = self.params;
-        self.points.clear();
-        self.normals.clear();
-        self.outliers.clear();
+        self.out.clear();
         let (w, h) = (img.width as i64, img.height as i64);
         let eta = p.eta as i64;
         let need = p.alpha_in * p.l as f64;
@@ -381,16 +393,16 @@ impl PlaneFilter {
                 // Lines 18–21, with the normal from a least-squares fit on the inliers.
                 let normal = least_squares_normal(&self.local, &self.inlier, r);
                 for (q, _) in self.local.iter().zip(&self.inlier).filter(|(_, ok)| **ok) {
-                    self.points.push(*q);
-                    self.normals.push(normal);
+                    self.out.points.push(*q);
+                    self.out.normals.push(normal);
                 }
                 n += inliers;
             } else {
                 // Line 23.
-                self.outliers.extend_from_slice(&self.local);
+                self.out.outliers.extend_from_slice(&self.local);
             }
         }
-        self.neighborhoods = k;
+        self.out.neighborhoods = k;
     }
 }
 
