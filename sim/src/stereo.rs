@@ -112,7 +112,9 @@ pub struct StereoRig {
     diff: Vec<f32>,
     integral: Vec<f64>,
     integral2: Vec<f64>,
-    /// Row-wise window sums of one disparity's differences, and the running column sums.
+    /// One row's differences for one disparity; the row-wise window sums of the rows in the
+    /// window, every disparity's, in a ring of 2r + 2 rows; every disparity's running column
+    /// sums.
     hsum: Vec<f64>,
     colsum: Vec<f64>,
     caster: FrustumCaster,
@@ -132,11 +134,11 @@ impl StereoRig {
             bundle,
             depth: vec![0.0; n],
             cost: vec![0.0; n * (spec.max_disparity + 1)],
-            diff: vec![0.0; n],
+            diff: vec![0.0; c.width],
             integral: vec![0.0; (c.width + 1) * (c.height + 1)],
             integral2: vec![0.0; (c.width + 1) * (c.height + 1)],
-            hsum: vec![0.0; n],
-            colsum: vec![0.0; c.width],
+            hsum: vec![0.0; (2 * spec.window_radius + 2) * (spec.max_disparity + 1) * c.width],
+            colsum: vec![0.0; c.width * (spec.max_disparity + 1)],
             caster: FrustumCaster::new(),
             spec,
         })
@@ -307,56 +309,80 @@ impl StereoRig {
     /// The SAD cost volume: for every disparity d and pixel, the sum over the (2r + 1)²
     /// window (clipped at the image border) of |L(u) − R(u − d)|, 1 where u < d (no right
     /// pixel: the worst difference). Separable running sums in f64, O(n) per disparity.
+    ///
+    /// The column sums run down the image once, every disparity's side by side, so each image
+    /// row of the (pixel-major) volume is written whole and in order; one pass per disparity
+    /// wrote the whole volume, larger than the cache, with a stride of one pixel each time. A
+    /// row's window sums are kept in a ring of the last 2r + 2 rows until the row leaves the
+    /// window. Every sum takes the operations, in the order, of the pass per disparity, so the
+    /// volume is the same bit for bit (`cost_volume_is_the_pass_per_disparity_bit_for_bit`).
     fn fill_cost_volume(&mut self, left: &[f32], right: &[f32]) {
         let (w, h) = (self.spec.camera.width, self.spec.camera.height);
         let r = self.spec.window_radius;
         let nd = self.spec.max_disparity + 1;
-        for d in 0..nd {
-            for v in 0..h {
-                let row = v * w;
-                for u in 0..w {
-                    self.diff[row + u] = if u >= d {
-                        (left[row + u] - right[row + u - d]).abs()
-                    } else {
-                        1.0
-                    };
-                }
-                // Window of u: [u − r, u + r] ∩ [0, w).
-                let diff = &self.diff[row..row + w];
-                let hs = &mut self.hsum[row..row + w];
-                let mut s: f64 = diff[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
-                for u in 0..w {
-                    hs[u] = s;
-                    if u + r + 1 < w {
-                        s += diff[u + r + 1] as f64;
-                    }
-                    if u >= r {
-                        s -= diff[u - r] as f64;
-                    }
+        let slots = 2 * r + 2;
+        // colsum[d * w + u]: rows [v − r, v + r] ∩ [0, h) of disparity d's row sums at u.
+        self.colsum.fill(0.0);
+        for v in 0..(r + 1).min(h) {
+            self.row_sums(left, right, v, v % slots);
+            let ring = &self.hsum[(v % slots) * nd * w..][..nd * w];
+            for (c, x) in self.colsum.iter_mut().zip(ring) {
+                *c += x;
+            }
+        }
+        for v in 0..h {
+            for (u, cost) in self.cost[v * w * nd..(v + 1) * w * nd]
+                .chunks_exact_mut(nd)
+                .enumerate()
+            {
+                for (d, c) in cost.iter_mut().enumerate() {
+                    *c = self.colsum[d * w + u] as f32;
                 }
             }
-            // Rows [v − r, v + r] ∩ [0, h) of the row sums.
-            self.colsum.fill(0.0);
-            for v in 0..(r + 1).min(h) {
-                for (c, x) in self.colsum.iter_mut().zip(&self.hsum[v * w..(v + 1) * w]) {
+            if v + r + 1 < h {
+                let add = v + r + 1;
+                self.row_sums(left, right, add, add % slots);
+                let ring = &self.hsum[(add % slots) * nd * w..][..nd * w];
+                for (c, x) in self.colsum.iter_mut().zip(ring) {
                     *c += x;
                 }
             }
-            for v in 0..h {
-                for u in 0..w {
-                    self.cost[(v * w + u) * nd + d] = self.colsum[u] as f32;
+            if v >= r {
+                let ring = &self.hsum[((v - r) % slots) * nd * w..][..nd * w];
+                for (c, x) in self.colsum.iter_mut().zip(ring) {
+                    *c -= x;
                 }
-                if v + r + 1 < h {
-                    let add = (v + r + 1) * w;
-                    for (c, x) in self.colsum.iter_mut().zip(&self.hsum[add..add + w]) {
-                        *c += x;
-                    }
+            }
+        }
+    }
+
+    /// Image row `v`'s window sums along the row, for every disparity, into ring slot `slot`
+    /// of `hsum` (disparity-major: `[d * w + u]`).
+    fn row_sums(&mut self, left: &[f32], right: &[f32], v: usize, slot: usize) {
+        let w = self.spec.camera.width;
+        let r = self.spec.window_radius;
+        let nd = self.spec.max_disparity + 1;
+        let row = v * w;
+        let (left, right) = (&left[row..row + w], &right[row..row + w]);
+        let diff = &mut self.diff[..w];
+        for d in 0..nd {
+            for u in 0..w {
+                diff[u] = if u >= d {
+                    (left[u] - right[u - d]).abs()
+                } else {
+                    1.0
+                };
+            }
+            // Window of u: [u − r, u + r] ∩ [0, w).
+            let hs = &mut self.hsum[(slot * nd + d) * w..][..w];
+            let mut s: f64 = diff[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
+            for u in 0..w {
+                hs[u] = s;
+                if u + r + 1 < w {
+                    s += diff[u + r + 1] as f64;
                 }
-                if v >= r {
-                    let sub = (v - r) * w;
-                    for (c, x) in self.colsum.iter_mut().zip(&self.hsum[sub..sub + w]) {
-                        *c -= x;
-                    }
+                if u >= r {
+                    s -= diff[u - r] as f64;
                 }
             }
         }
@@ -455,6 +481,102 @@ mod tests {
     use atrium_worlds::lighting::LightingCondition;
     use atrium_worlds::World;
     use rand::SeedableRng;
+
+    /// The cost volume as one pass per disparity computed it (the code before the row-wise
+    /// sweep), pixel-major like the rig's.
+    fn cost_volume_pass_per_disparity(
+        left: &[f32],
+        right: &[f32],
+        (w, h, r, nd): (usize, usize, usize, usize),
+    ) -> Vec<f32> {
+        let mut cost = vec![0.0f32; w * h * nd];
+        let (mut diff, mut hsum) = (vec![0.0f32; w * h], vec![0.0f64; w * h]);
+        let mut colsum = vec![0.0f64; w];
+        for d in 0..nd {
+            for v in 0..h {
+                let row = v * w;
+                for u in 0..w {
+                    diff[row + u] = if u >= d {
+                        (left[row + u] - right[row + u - d]).abs()
+                    } else {
+                        1.0
+                    };
+                }
+                let df = &diff[row..row + w];
+                let hs = &mut hsum[row..row + w];
+                let mut s: f64 = df[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
+                for u in 0..w {
+                    hs[u] = s;
+                    if u + r + 1 < w {
+                        s += df[u + r + 1] as f64;
+                    }
+                    if u >= r {
+                        s -= df[u - r] as f64;
+                    }
+                }
+            }
+            colsum.fill(0.0);
+            for v in 0..(r + 1).min(h) {
+                for (c, x) in colsum.iter_mut().zip(&hsum[v * w..(v + 1) * w]) {
+                    *c += x;
+                }
+            }
+            for v in 0..h {
+                for u in 0..w {
+                    cost[(v * w + u) * nd + d] = colsum[u] as f32;
+                }
+                if v + r + 1 < h {
+                    let add = (v + r + 1) * w;
+                    for (c, x) in colsum.iter_mut().zip(&hsum[add..add + w]) {
+                        *c += x;
+                    }
+                }
+                if v >= r {
+                    let sub = (v - r) * w;
+                    for (c, x) in colsum.iter_mut().zip(&hsum[sub..sub + w]) {
+                        *c -= x;
+                    }
+                }
+            }
+        }
+        cost
+    }
+
+    #[test]
+    fn cost_volume_is_the_pass_per_disparity_bit_for_bit() {
+        use rand::Rng;
+        let mut g = ChaCha8Rng::seed_from_u64(5);
+        // The paper's size, a small image whose window and search reach past every border,
+        // and a one-pixel radius.
+        for (width, height, r, dmax) in [(160, 120, 3, 32), (12, 9, 4, 10), (20, 7, 1, 19)] {
+            let mut spec = StereoSpec::paper("s");
+            spec.camera.width = width;
+            spec.camera.height = height;
+            spec.window_radius = r;
+            spec.max_disparity = dmax;
+            let mut rig = StereoRig::new(spec, "stereo").unwrap();
+            let n = width * height;
+            // Intensities of magnitudes 1e-18 to 1e18: their f64 sums round, so a change in
+            // the order of additions shows (with 0–255 alone every sum is exact).
+            let left: Vec<f32> = (0..n)
+                .map(|_| g.random::<f32>() * 10f32.powi(g.random_range(-18..=18)))
+                .collect();
+            let right: Vec<f32> = (0..n)
+                .map(|i| left[i] * 0.5 + g.random::<f32>() * 1e-3 + (i % 7) as f32)
+                .collect();
+            rig.fill_cost_volume(&left, &right);
+            let dims = (width, height, r, dmax + 1);
+            let expected = cost_volume_pass_per_disparity(&left, &right, dims);
+            assert_eq!(rig.cost.len(), expected.len());
+            for (i, (a, b)) in rig.cost.iter().zip(&expected).enumerate() {
+                assert_eq!(
+                    a.to_bits(),
+                    b.to_bits(),
+                    "{width} × {height}, r {r}: entry {i}"
+                );
+            }
+        }
+    }
 
     fn lab() -> (World, Scene) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../worlds/lab.toml");
