@@ -364,27 +364,39 @@ impl StereoRig {
         let nd = self.spec.max_disparity + 1;
         let row = v * w;
         let (left, right) = (&left[row..row + w], &right[row..row + w]);
-        let diff = &mut self.diff[..w];
         for d in 0..nd {
-            for u in 0..w {
-                diff[u] = if u >= d {
-                    (left[u] - right[u - d]).abs()
-                } else {
-                    1.0
-                };
-            }
-            // Window of u: [u − r, u + r] ∩ [0, w).
             let hs = &mut self.hsum[(slot * nd + d) * w..][..w];
-            let mut s: f64 = diff[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
-            for u in 0..w {
-                hs[u] = s;
-                if u + r + 1 < w {
-                    s += diff[u + r + 1] as f64;
-                }
-                if u >= r {
-                    s -= diff[u - r] as f64;
-                }
-            }
+            row_window_sums(left, right, d, r, &mut self.diff[..w], hs);
+        }
+    }
+}
+
+/// One image row's window sums at disparity `d`: `hs[u]` is the sum over u′ in
+/// [u − r, u + r] ∩ [0, w) of |L(u′) − R(u′ − d)|, 1 where u′ < d; `diff` is scratch.
+fn row_window_sums(
+    left: &[f32],
+    right: &[f32],
+    d: usize,
+    r: usize,
+    diff: &mut [f32],
+    hs: &mut [f64],
+) {
+    let w = left.len();
+    for u in 0..w {
+        diff[u] = if u >= d {
+            (left[u] - right[u - d]).abs()
+        } else {
+            1.0
+        };
+    }
+    let mut s: f64 = diff[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
+    for u in 0..w {
+        hs[u] = s;
+        if u + r + 1 < w {
+            s += diff[u + r + 1] as f64;
+        }
+        if u >= r {
+            s -= diff[u - r] as f64;
         }
     }
 }
@@ -483,37 +495,20 @@ mod tests {
     use rand::SeedableRng;
 
     /// The cost volume as one pass per disparity computed it (the code before the row-wise
-    /// sweep), pixel-major like the rig's.
+    /// sweep, with the same row sums), pixel-major like the rig's.
     fn cost_volume_pass_per_disparity(
         left: &[f32],
         right: &[f32],
         (w, h, r, nd): (usize, usize, usize, usize),
     ) -> Vec<f32> {
         let mut cost = vec![0.0f32; w * h * nd];
-        let (mut diff, mut hsum) = (vec![0.0f32; w * h], vec![0.0f64; w * h]);
+        let (mut diff, mut hsum) = (vec![0.0f32; w], vec![0.0f64; w * h]);
         let mut colsum = vec![0.0f64; w];
         for d in 0..nd {
             for v in 0..h {
-                let row = v * w;
-                for u in 0..w {
-                    diff[row + u] = if u >= d {
-                        (left[row + u] - right[row + u - d]).abs()
-                    } else {
-                        1.0
-                    };
-                }
-                let df = &diff[row..row + w];
-                let hs = &mut hsum[row..row + w];
-                let mut s: f64 = df[..(r + 1).min(w)].iter().map(|&x| x as f64).sum();
-                for u in 0..w {
-                    hs[u] = s;
-                    if u + r + 1 < w {
-                        s += df[u + r + 1] as f64;
-                    }
-                    if u >= r {
-                        s -= df[u - r] as f64;
-                    }
-                }
+                let row = v * w..(v + 1) * w;
+                let hs = &mut hsum[row.clone()];
+                row_window_sums(&left[row.clone()], &right[row], d, r, &mut diff, hs);
             }
             colsum.fill(0.0);
             for v in 0..(r + 1).min(h) {
