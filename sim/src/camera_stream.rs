@@ -20,7 +20,7 @@ use crate::camera::{
 };
 use crate::robot::project;
 use crate::scene::Scene;
-use crate::simulation::Schedule;
+use crate::schedule::Schedule;
 use crate::stereo::{StereoRig, StereoSpec};
 use crate::SimError;
 use atrium_robots::{IntensityImage, Mount3, Pose2, Reading};

@@ -17,6 +17,7 @@ pub mod people;
 pub mod person_shape;
 pub mod robot;
 pub mod scene;
+mod schedule;
 pub mod simulation;
 pub mod stereo;
 pub mod wifi;
