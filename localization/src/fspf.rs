@@ -186,7 +186,6 @@ impl Output {
 /// keeps no record.
 #[derive(Debug, Default)]
 struct LastFrame {
-    valid: bool,
     params: Option<FspfParams>,
     rng_before: Option<ChaCha8Rng>,
     rng_after: Option<ChaCha8Rng>,
@@ -210,8 +209,7 @@ fn geometry_bits(img: &DepthImage) -> [u64; 6] {
 impl LastFrame {
     /// Whether this record is the frame `img` filtered with `params` from `rng`.
     fn matches(&self, params: &FspfParams, rng: &ChaCha8Rng, img: &DepthImage) -> bool {
-        self.valid
-            && self.params.as_ref() == Some(params)
+        self.params.as_ref() == Some(params)
             && self.rng_before.as_ref() == Some(rng)
             && self.geometry == geometry_bits(img)
             && self.depth_bits.len() == img.depth.len()
@@ -319,7 +317,6 @@ impl PlaneFilter {
     /// Records this frame's inputs and result for the clones (buffers reused).
     fn share(&self, img: &DepthImage, rng_before: ChaCha8Rng) {
         let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        last.valid = true;
         last.params = Some(self.params);
         last.rng_before = Some(rng_before);
         last.rng_after = Some(self.rng.clone());

@@ -320,15 +320,10 @@ impl StereoRig {
         let (w, h) = (self.spec.camera.width, self.spec.camera.height);
         let r = self.spec.window_radius;
         let nd = self.spec.max_disparity + 1;
-        let slots = 2 * r + 2;
         // colsum[d * w + u]: rows [v − r, v + r] ∩ [0, h) of disparity d's row sums at u.
         self.colsum.fill(0.0);
         for v in 0..(r + 1).min(h) {
-            self.row_sums(left, right, v, v % slots);
-            let ring = &self.hsum[(v % slots) * nd * w..][..nd * w];
-            for (c, x) in self.colsum.iter_mut().zip(ring) {
-                *c += x;
-            }
+            self.enter_row(left, right, v);
         }
         for v in 0..h {
             for (u, cost) in self.cost[v * w * nd..(v + 1) * w * nd]
@@ -340,15 +335,10 @@ impl StereoRig {
                 }
             }
             if v + r + 1 < h {
-                let add = v + r + 1;
-                self.row_sums(left, right, add, add % slots);
-                let ring = &self.hsum[(add % slots) * nd * w..][..nd * w];
-                for (c, x) in self.colsum.iter_mut().zip(ring) {
-                    *c += x;
-                }
+                self.enter_row(left, right, v + r + 1);
             }
             if v >= r {
-                let ring = &self.hsum[((v - r) % slots) * nd * w..][..nd * w];
+                let ring = &self.hsum[self.ring_slot(v - r)];
                 for (c, x) in self.colsum.iter_mut().zip(ring) {
                     *c -= x;
                 }
@@ -356,16 +346,33 @@ impl StereoRig {
         }
     }
 
-    /// Image row `v`'s window sums along the row, for every disparity, into ring slot `slot`
-    /// of `hsum` (disparity-major: `[d * w + u]`).
-    fn row_sums(&mut self, left: &[f32], right: &[f32], v: usize, slot: usize) {
+    /// The ring slot of image row `v`'s window sums in `hsum`, all disparities.
+    fn ring_slot(&self, v: usize) -> std::ops::Range<usize> {
+        let size = (self.spec.max_disparity + 1) * self.spec.camera.width;
+        let slot = v % (2 * self.spec.window_radius + 2);
+        slot * size..(slot + 1) * size
+    }
+
+    /// Row `v` enters the window: its window sums go to its ring slot and onto the column sums.
+    fn enter_row(&mut self, left: &[f32], right: &[f32], v: usize) {
+        self.row_sums(left, right, v);
+        let ring = &self.hsum[self.ring_slot(v)];
+        for (c, x) in self.colsum.iter_mut().zip(ring) {
+            *c += x;
+        }
+    }
+
+    /// Image row `v`'s window sums along the row, for every disparity, into its ring slot of
+    /// `hsum` (disparity-major: `[d * w + u]`).
+    fn row_sums(&mut self, left: &[f32], right: &[f32], v: usize) {
+        let start = self.ring_slot(v).start;
         let w = self.spec.camera.width;
         let r = self.spec.window_radius;
         let nd = self.spec.max_disparity + 1;
         let row = v * w;
         let (left, right) = (&left[row..row + w], &right[row..row + w]);
         for d in 0..nd {
-            let hs = &mut self.hsum[(slot * nd + d) * w..][..w];
+            let hs = &mut self.hsum[start + d * w..][..w];
             row_window_sums(left, right, d, r, &mut self.diff[..w], hs);
         }
     }
