@@ -186,6 +186,9 @@ pub struct Stencil {
     wy: [f64; 4],
 }
 
+/// Most access points [`WifiGraph::eval_aps`] evaluates at once.
+pub const AP_CHUNK: usize = 16;
+
 /// Smallest variance an interpolated node variance is clamped to (cubic interpolation can
 /// overshoot below zero between a low and a high node), dB².
 const MIN_VARIANCE: f64 = 1e-3;
@@ -507,6 +510,39 @@ impl WifiGraph {
         (m, v.max(MIN_VARIANCE))
     }
 
+    /// [`WifiGraph::eval`] of the access points `first..first + mean.len()` (at most
+    /// [`AP_CHUNK`]) at one stencil, into `mean` and `var`: per access point the very
+    /// operations of `eval` in its order, so every value is its bit for bit. Only the reads
+    /// are shared: a node's access points lie side by side, and `eval` strides across the
+    /// sixteen nodes once per access point (a quarter of the WiFi filter's update).
+    #[inline]
+    pub fn eval_aps(&self, st: &Stencil, first: usize, mean: &mut [f64], var: &mut [f64]) {
+        let n_ap = self.aps.len();
+        let k = mean.len();
+        assert!(k <= AP_CHUNK && var.len() == k && first + k <= n_ap);
+        let (mut m, mut v) = ([0.0; AP_CHUNK], [0.0; AP_CHUNK]);
+        for (r, wy) in st.wy.iter().enumerate() {
+            let row = st.base + r * self.width;
+            let (mut mr, mut vr) = ([0.0; AP_CHUNK], [0.0; AP_CHUNK]);
+            for (c, wx) in st.wx.iter().enumerate() {
+                let at = (row + c) * n_ap + first;
+                let (node_mean, node_var) = (&self.mean[at..at + k], &self.var[at..at + k]);
+                for a in 0..k {
+                    mr[a] += wx * node_mean[a];
+                    vr[a] += wx * node_var[a];
+                }
+            }
+            for a in 0..k {
+                m[a] += wy * mr[a];
+                v[a] += wy * vr[a];
+            }
+        }
+        mean.copy_from_slice(&m[..k]);
+        for (out, v) in var.iter_mut().zip(&v[..k]) {
+            *out = v.max(MIN_VARIANCE);
+        }
+    }
+
     /// Interpolated (mean, variance of the mean) of access point `ap` at (x, y).
     pub fn interpolate(&self, ap: usize, x: f64, y: f64) -> (f64, f64) {
         self.eval(&self.stencil(x, y), ap)
@@ -717,6 +753,36 @@ mod tests {
         // At a node, the node's value.
         let (m, _) = g.interpolate(0, origin[0] + 5.0 * s, origin[1] + 7.0 * s);
         assert!((m - g.node(0, 5, 7).0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn access_points_evaluated_together_are_each_evaluated_alone_bit_for_bit() {
+        // 19 access points: a full chunk and a partial one. Node values span 1e-12..1e12 with
+        // both signs, so a reordered sum or a fused multiply-add changes the bits.
+        let (w, h, n_ap) = (9, 7, 19);
+        let mut mean = Vec::new();
+        let mut var = Vec::new();
+        for k in 0..w * h * n_ap {
+            let e = ((k * 7) % 25) as i32 - 12;
+            let sign = if k % 3 == 0 { -1.0 } else { 1.0 };
+            mean.push(sign * (1.0 + (k % 11) as f64 / 7.0) * 10f64.powi(e));
+            var.push((1.0 + (k % 5) as f64 / 3.0) * 10f64.powi(-e));
+        }
+        let aps = (0..n_ap).map(|a| ap(&format!("ap{a}"))).collect();
+        let g = WifiGraph::from_nodes([0.0, 0.0], 0.5, w, h, aps, mean, var, -90.0).unwrap();
+        let (mut m, mut v) = ([0.0; AP_CHUNK], [0.0; AP_CHUNK]);
+        for (x, y) in [(1.13, 0.77), (2.0, 2.0), (-3.0, 9.0), (3.21, 1.49)] {
+            let st = g.stencil(x, y);
+            for first in (0..n_ap).step_by(AP_CHUNK) {
+                let k = AP_CHUNK.min(n_ap - first);
+                g.eval_aps(&st, first, &mut m[..k], &mut v[..k]);
+                for j in 0..k {
+                    let (m1, v1) = g.eval(&st, first + j);
+                    assert_eq!(m[j].to_bits(), m1.to_bits(), "mean of ap {}", first + j);
+                    assert_eq!(v[j].to_bits(), v1.to_bits(), "var of ap {}", first + j);
+                }
+            }
+        }
     }
 
     fn scan(readings: &[(&str, f64)]) -> WifiScan {

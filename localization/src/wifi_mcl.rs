@@ -28,7 +28,7 @@ use crate::motion::OdometryMotionModel;
 use crate::observation_fit::{per_unit_log_mean, FitTracker};
 use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
 use crate::resampling::Injection;
-use crate::wifi_graph::WifiGraph;
+use crate::wifi_graph::{WifiGraph, AP_CHUNK};
 use atrium_robots::{Pose2, Reading, WifiScan};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -322,20 +322,27 @@ impl WifiMcl {
         // Outlier densities: a uniform reading over a 100 dB span; a missing reading anyway.
         let (out_heard, out_missing) = (eps / 100.0, eps);
         let (mut l, mut var_sum) = (0.0, 0.0);
-        for (a, &z) in self.z.iter().enumerate() {
-            let (mu, var) = self.graph.eval(&st, a);
-            var_sum += var;
-            let noise = self.graph.aps[a].kernel.noise_sd;
-            let s2 = var + noise * noise;
-            let p = if z.is_nan() {
-                let s = s2.sqrt();
-                (1.0 - eps) * normal_cdf((self.cutoff - mu) / s) + out_missing
-            } else {
-                let d = z - mu;
-                (1.0 - eps) * (-0.5 * d * d / s2).exp() / (2.0 * std::f64::consts::PI * s2).sqrt()
-                    + out_heard
-            };
-            l += p.ln();
+        let (mut means, mut vars) = ([0.0; AP_CHUNK], [0.0; AP_CHUNK]);
+        for (chunk, zs) in self.z.chunks(AP_CHUNK).enumerate() {
+            let first = chunk * AP_CHUNK;
+            let (means, vars) = (&mut means[..zs.len()], &mut vars[..zs.len()]);
+            self.graph.eval_aps(&st, first, means, vars);
+            for (j, &z) in zs.iter().enumerate() {
+                let (mu, var) = (means[j], vars[j]);
+                var_sum += var;
+                let noise = self.graph.aps[first + j].kernel.noise_sd;
+                let s2 = var + noise * noise;
+                let p = if z.is_nan() {
+                    let s = s2.sqrt();
+                    (1.0 - eps) * normal_cdf((self.cutoff - mu) / s) + out_missing
+                } else {
+                    let d = z - mu;
+                    (1.0 - eps) * (-0.5 * d * d / s2).exp()
+                        / (2.0 * std::f64::consts::PI * s2).sqrt()
+                        + out_heard
+                };
+                l += p.ln();
+            }
         }
         (l, var_sum / self.prior_variance.max(f64::MIN_POSITIVE))
     }
