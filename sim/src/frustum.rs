@@ -123,7 +123,7 @@ impl FrustumCaster {
                 let ray = Ray::new(origin, dir);
                 // Best so far: candidate index and its hit (in the candidate's frame for a
                 // cuboid, until it is returned).
-                let mut best: Option<(usize, RayIntersection)> = None;
+                let mut best: Option<(usize, Found)> = None;
                 let mut second = f32::INFINITY;
                 for &k in &self.row {
                     let c = &self.candidates[k];
@@ -132,33 +132,37 @@ impl FrustumCaster {
                     }
                     if let Some((_, b)) = &best {
                         // Sorted by `near`: nothing further on can be nearer or tie.
-                        if c.near > b.time_of_impact * (1.0 + 2.0 * TIE) {
+                        if c.near > b.toi() * (1.0 + 2.0 * TIE) {
                             break;
                         }
                     }
                     let hit = match &c.cuboid {
                         Some(cuboid) => {
                             let local = Ray::new(c.local_origin, c.inv_rotation * dir);
-                            cast_cuboid(cuboid.half_extents, &local, max_toi).unwrap_or_else(|| {
-                                cuboid.cast_local_ray_and_get_normal(&local, max_toi, true)
-                            })
+                            match cast_cuboid(cuboid.half_extents, &local, max_toi) {
+                                Some(hit) => hit.map(Found::Cuboid),
+                                None => cuboid
+                                    .cast_local_ray_and_get_normal(&local, max_toi, true)
+                                    .map(Found::Shape),
+                            }
                         }
                         None => {
                             let co = &colliders[c.handle];
                             co.shape()
                                 .cast_ray_and_get_normal(co.position(), &ray, max_toi, true)
+                                .map(Found::Shape)
                         }
                     };
                     let Some(hit) = hit else {
                         continue;
                     };
                     match &best {
-                        Some((_, b)) if hit.time_of_impact >= b.time_of_impact => {
-                            second = second.min(hit.time_of_impact);
+                        Some((_, b)) if hit.toi() >= b.toi() => {
+                            second = second.min(hit.toi());
                         }
                         _ => {
                             if let Some((_, b)) = &best {
-                                second = second.min(b.time_of_impact);
+                                second = second.min(b.toi());
                             }
                             best = Some((k, hit));
                         }
@@ -166,6 +170,7 @@ impl FrustumCaster {
                 }
                 let best: Option<Hit> = best.map(|(k, hit)| {
                     let c = &self.candidates[k];
+                    let hit = hit.intersection();
                     match c.cuboid {
                         Some(_) => (c.handle, hit.transform_by(&c.pose)),
                         None => (c.handle, hit),
@@ -313,6 +318,76 @@ impl FrustumCaster {
     }
 }
 
+/// A pixel's hit on one candidate: a cuboid's in brief, or a shape's as parry gives it.
+#[derive(Debug, Clone, Copy)]
+enum Found {
+    Cuboid(CuboidHit),
+    Shape(RayIntersection),
+}
+
+impl Found {
+    fn toi(&self) -> f32 {
+        match self {
+            Found::Cuboid(h) => h.toi(),
+            Found::Shape(h) => h.time_of_impact,
+        }
+    }
+
+    fn intersection(self) -> RayIntersection {
+        match self {
+            Found::Cuboid(h) => h.intersection(),
+            Found::Shape(h) => h,
+        }
+    }
+}
+
+/// What [`cast_cuboid`] found, in brief: a time and a face, which fit in a register where
+/// parry's `RayIntersection` went through memory (reading it back after each cast stalled a
+/// sixth of a depth frame). [`CuboidHit::intersection`] builds parry's answer, for the
+/// nearest hit of a pixel only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CuboidHit {
+    /// The origin is inside the box; the ray leaves through `side`.
+    Inside { side: i8 },
+    /// The ray enters through `side` at time `toi`.
+    Enters { toi: f32, side: i8 },
+}
+
+impl CuboidHit {
+    pub fn toi(self) -> f32 {
+        match self {
+            CuboidHit::Inside { .. } => 0.0,
+            CuboidHit::Enters { toi, .. } => toi,
+        }
+    }
+
+    /// parry's `RayIntersection` of this hit: sides ±1..±3 are the faces of +x..+z
+    /// (negative: of −x..−z); an entered face's normal points against the ray, and a ray
+    /// from inside has time 0 and a zero normal.
+    pub fn intersection(self) -> RayIntersection {
+        let feature = |side: i8| {
+            if side < 0 {
+                FeatureId::Face((-side) as u32 - 1 + 3)
+            } else {
+                FeatureId::Face(side as u32 - 1)
+            }
+        };
+        match self {
+            CuboidHit::Inside { side } => RayIntersection::new(0.0, Vector::ZERO, feature(side)),
+            CuboidHit::Enters { toi, side } => {
+                // Built in registers: an array written one lane and read whole stalled.
+                let (axis, n) = if side < 0 { (-side, 1.0) } else { (side, -1.0) };
+                let normal = match axis {
+                    1 => Vector::new(n, 0.0, 0.0),
+                    2 => Vector::new(0.0, n, 0.0),
+                    _ => Vector::new(0.0, 0.0, n),
+                };
+                RayIntersection::new(toi, normal, feature(side))
+            }
+        }
+    }
+}
+
 /// `Cuboid::cast_local_ray_and_get_normal(ray, max_toi, true)` (parry's `clip_aabb_line`
 /// and `ray_aabb` on the box ±`half`) for the common case, with the very operations parry
 /// performs there, in its order, minus the generic per-axis indexing and tuple returns that
@@ -320,12 +395,12 @@ impl FrustumCaster {
 /// with a finite inverse, and no two slabs entered or left at the same parameter. For
 /// anything else (`None`), parry itself must be asked.
 #[inline]
-pub fn cast_cuboid(half: Vector, ray: &Ray, max_toi: f32) -> Option<Option<RayIntersection>> {
+pub fn cast_cuboid(half: Vector, ray: &Ray, max_toi: f32) -> Option<Option<CuboidHit>> {
     let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
     let (mins, maxs) = ((-half).to_array(), half.to_array());
     let mut tmax = f32::MAX;
     let mut tmin = -tmax;
-    let (mut near_side, mut far_side) = (0isize, 0isize);
+    let (mut near_side, mut far_side) = (0i8, 0i8);
     let (mut near_diag, mut far_diag) = (false, false);
     for i in 0..3 {
         // parry's zero-direction branch (and NaN) are left to parry.
@@ -342,7 +417,7 @@ pub fn cast_cuboid(half: Vector, ray: &Ray, max_toi: f32) -> Option<Option<RayIn
         if flip {
             std::mem::swap(&mut near, &mut far);
         }
-        let side = i as isize + 1;
+        let side = i as i8 + 1;
         if near > tmin {
             tmin = near;
             near_side = if flip { -side } else { side };
@@ -364,27 +439,13 @@ pub fn cast_cuboid(half: Vector, ray: &Ray, max_toi: f32) -> Option<Option<RayIn
     if near_diag || far_diag || near_side == 0 || far_side == 0 {
         return None;
     }
-    let feature = |side: isize| {
-        if side < 0 {
-            FeatureId::Face((-side) as u32 - 1 + 3)
-        } else {
-            FeatureId::Face(side as u32 - 1)
-        }
-    };
     Some(if tmin < 0.0 {
-        Some(RayIntersection::new(0.0, Vector::ZERO, feature(far_side)))
+        Some(CuboidHit::Inside { side: far_side })
     } else if tmin <= max_toi {
-        let mut normal = [0.0f32; 3];
-        if near_side < 0 {
-            normal[(-near_side - 1) as usize] = 1.0;
-        } else {
-            normal[(near_side - 1) as usize] = -1.0;
-        }
-        Some(RayIntersection::new(
-            tmin,
-            Vector::from_array(normal),
-            feature(near_side),
-        ))
+        Some(CuboidHit::Enters {
+            toi: tmin,
+            side: near_side,
+        })
     } else {
         None
     })

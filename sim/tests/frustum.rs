@@ -294,6 +294,7 @@ fn cuboid_fast_path_is_parrys_cast_bit_for_bit() {
                     )
                 })
             };
+            let ours = ours.map(|h| h.intersection());
             assert_eq!(key(ours), key(parry), "{half:?} {ray:?} {max_toi}");
             hits += ours.is_some() as usize;
         }
