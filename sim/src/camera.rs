@@ -305,11 +305,11 @@ impl Shader {
     fn lamp_at(&self, p: Vector) -> Option<f32> {
         let (x, y) = (p.x as f64, p.y as f64);
         for e in &self.emitters {
-            let d = match e.kind {
-                LightKind::Bulb => (x - e.a[0]).hypot(y - e.a[1]),
-                _ => crate_distance_to_segment([x, y], [e.a[0], e.a[1]], [e.b[0], e.b[1]]),
+            let (dx, dy) = match e.kind {
+                LightKind::Bulb => (x - e.a[0], y - e.a[1]),
+                _ => offset_from_segment([x, y], [e.a[0], e.a[1]], [e.b[0], e.b[1]]),
             };
-            if d < LAMP_HALF_WIDTH {
+            if shorter_than(dx, dy, LAMP_HALF_WIDTH) {
                 return Some(e.radiance);
             }
         }
@@ -325,8 +325,8 @@ impl Shader {
                 continue;
             }
             // Within 0.1 m of the pane's line (the wall face it is painted on).
-            let d = crate_distance_to_segment([x, y], [w.a[0], w.a[1]], [w.b[0], w.b[1]]);
-            if d < 0.1 {
+            let (dx, dy) = offset_from_segment([x, y], [w.a[0], w.a[1]], [w.b[0], w.b[1]]);
+            if shorter_than(dx, dy, 0.1) {
                 return Some(if w.radiance >= 1.0 { 0.95 } else { 0.04 });
             }
         }
@@ -334,7 +334,8 @@ impl Shader {
     }
 }
 
-fn crate_distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+/// The offset from the point of segment a–b nearest to `p` to `p`.
+fn offset_from_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let l2 = dx * dx + dy * dy;
     let t = if l2 > 0.0 {
@@ -342,7 +343,18 @@ fn crate_distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     } else {
         0.0
     };
-    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+    (p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
+}
+
+/// `dx.hypot(dy) < r`, with `hypot` (a library call, a twentieth of a camera frame when every
+/// pixel tested every lamp) only where the plain square sum, off by a few ulps at most, is
+/// within a margin of r²: the same answer for every input, NaN included.
+#[inline]
+fn shorter_than(dx: f64, dy: f64, r: f64) -> bool {
+    if dx * dx + dy * dy > r * r * (1.0 + 1e-6) {
+        return false;
+    }
+    dx.hypot(dy) < r
 }
 
 /// Lattice hash → [0, 1).
@@ -802,7 +814,38 @@ mod tests {
     use super::*;
     use crate::fixtures;
     use atrium_worlds::lighting::Light;
-    use rand::SeedableRng;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn shorter_than_is_hypot_below_the_radius_for_every_input() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let r = LAMP_HALF_WIDTH;
+        let mut cases = vec![
+            (f64::NAN, 0.0),
+            (0.0, f64::NAN),
+            (f64::INFINITY, 0.0),
+            (1e200, 1e200),
+            (1e-200, -1e-200),
+            (0.0, -0.0),
+            (r, 0.0),
+            (0.0, -r),
+        ];
+        for _ in 0..200_000 {
+            // Around the circle (where the two tests could part) and anywhere.
+            let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let ulps: i64 = rng.random_range(-4..=4);
+            let dx = f64::from_bits(((r * a.cos()).to_bits() as i64 + ulps) as u64);
+            cases.push((dx, r * a.sin()));
+            cases.push((rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)));
+        }
+        let mut inside = 0;
+        for (dx, dy) in cases {
+            let want = dx.hypot(dy) < r;
+            assert_eq!(shorter_than(dx, dy, r), want, "{dx} {dy}");
+            inside += want as usize;
+        }
+        assert!(inside > 50_000, "{inside}");
+    }
 
     fn lit_room() -> World {
         let mut w = fixtures::box_room(6.0, 4.0, "concrete");
