@@ -8,6 +8,7 @@
 //! Clusters are connected components of occupied histogram bins (x, y, θ; 26-neighbourhood,
 //! θ wrapping), the clustering amcl does on its kd-tree leaves.
 
+use crate::lattice::floor_i64;
 use crate::particles::weighted_mean_covariance_of;
 use atrium_robots::Pose2;
 use nalgebra::Matrix3;
@@ -99,10 +100,10 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
 
 /// The histogram bin of a pose; θ bins count from −π and wrap at `theta_bins`.
 fn bin_key(x: f64, y: f64, th: f64, bin: &[f64; 3], theta_bins: i64) -> [i64; 3] {
-    let t = ((th + PI) / bin[2]).floor() as i64;
+    let t = floor_i64((th + PI) / bin[2]);
     [
-        (x / bin[0]).floor() as i64,
-        (y / bin[1]).floor() as i64,
+        floor_i64(x / bin[0]),
+        floor_i64(y / bin[1]),
         t.rem_euclid(theta_bins),
     ]
 }

@@ -3,6 +3,7 @@
 //! between the sample-based and the true posterior below ε with probability 1 − δ, given the
 //! number k of histogram bins the particles occupy.
 
+use crate::lattice::floor_i64;
 use atrium_robots::normalize_angle;
 
 /// Standard normal quantile (inverse CDF), Acklam's rational approximation: relative error
@@ -172,7 +173,7 @@ impl BinSet {
     /// ±200 km, far beyond any indoor map).
     #[inline]
     pub fn key(&self, x: f64, y: f64, theta: f64) -> u64 {
-        let pack = |v: f64| ((v.floor() as i64 + (1 << 20)) as u64) & 0x1F_FFFF;
+        let pack = |v: f64| ((floor_i64(v) + (1 << 20)) as u64) & 0x1F_FFFF;
         pack(x * self.inv_bin[0])
             | pack(y * self.inv_bin[1]) << 21
             | pack(normalize_angle(theta) * self.inv_bin[2]) << 42

@@ -19,6 +19,7 @@ pub mod gp;
 pub mod initial_belief;
 pub mod kld;
 pub mod landmark_filter;
+pub mod lattice;
 pub mod likelihood_field;
 pub mod limits;
 pub mod line_map;
