@@ -494,27 +494,16 @@ impl WifiGraph {
     /// Interpolated (mean dBm, variance dB² of the mean) of access point `ap` at a stencil.
     #[inline]
     pub fn eval(&self, st: &Stencil, ap: usize) -> (f64, f64) {
-        let n_ap = self.aps.len();
-        let (mut m, mut v) = (0.0, 0.0);
-        for (r, wy) in st.wy.iter().enumerate() {
-            let row = st.base + r * self.width;
-            let (mut mr, mut vr) = (0.0, 0.0);
-            for (c, wx) in st.wx.iter().enumerate() {
-                let k = (row + c) * n_ap + ap;
-                mr += wx * self.mean[k];
-                vr += wx * self.var[k];
-            }
-            m += wy * mr;
-            v += wy * vr;
-        }
-        (m, v.max(MIN_VARIANCE))
+        let (mut m, mut v) = ([0.0], [0.0]);
+        self.eval_aps(st, ap, &mut m, &mut v);
+        (m[0], v[0])
     }
 
     /// [`WifiGraph::eval`] of the access points `first..first + mean.len()` (at most
-    /// [`AP_CHUNK`]) at one stencil, into `mean` and `var`: per access point the very
-    /// operations of `eval` in its order, so every value is its bit for bit. Only the reads
-    /// are shared: a node's access points lie side by side, and `eval` strides across the
-    /// sixteen nodes once per access point (a quarter of the WiFi filter's update).
+    /// [`AP_CHUNK`]) at one stencil, into `mean` and `var`. Each access point's sums run in
+    /// the same order whatever the chunk, so its value is the same bit for bit; the chunk
+    /// shares the reads: a node's access points lie side by side, where one access point at a
+    /// time strode across the sixteen nodes (a quarter of the WiFi filter's update).
     #[inline]
     pub fn eval_aps(&self, st: &Stencil, first: usize, mean: &mut [f64], var: &mut [f64]) {
         let n_ap = self.aps.len();
@@ -758,7 +747,7 @@ mod tests {
     #[test]
     fn access_points_evaluated_together_are_each_evaluated_alone_bit_for_bit() {
         // 19 access points: a full chunk and a partial one. Node values span 1e-12..1e12 with
-        // both signs, so a reordered sum or a fused multiply-add changes the bits.
+        // both signs, so sums whose order depended on the chunk would differ in the bits.
         let (w, h, n_ap) = (9, 7, 19);
         let mut mean = Vec::new();
         let mut var = Vec::new();
