@@ -69,7 +69,7 @@ def fmt(v):
 
 def speed_section():
     lines = [
-        "### Real-time factors (one run each, seed 1, drive only)",
+        "### Real-time factors (one run each, the scenario's own seed, drive only)",
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, "
         f"{platform.processor() or platform.platform()}; measured {time.strftime('%Y-%m-%d')}.",
