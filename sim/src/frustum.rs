@@ -343,8 +343,8 @@ impl Found {
 
 /// What [`cast_cuboid`] found, in brief: a time and a face, which fit in a register where
 /// parry's `RayIntersection` went through memory (reading it back after each cast stalled:
-/// 14 % of a depth frame's samples fell on that one load). [`CuboidHit::intersection`] builds parry's answer, for the
-/// nearest hit of a pixel only.
+/// 14 % of a depth frame's samples fell on that one load). [`CuboidHit::intersection`]
+/// builds parry's answer, for the nearest hit of a pixel only.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CuboidHit {
     /// The origin is inside the box; the ray leaves through `side`.
