@@ -25,6 +25,9 @@ use rapier3d::parry::query::RayCast;
 use rapier3d::parry::shape::{Cuboid, FeatureId};
 use rapier3d::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+mod avx;
+
 /// Image-plane intrinsics of a pinhole camera whose REP-103 frame looks along +x: a camera-
 /// frame direction (1, −(u − cx)/fx, −(v − cy)/fy) goes through pixel (u, v).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,13 +68,162 @@ struct Candidate {
     local_origin: Vector,
 }
 
+/// Pixels cast together: a row's rays are turned into the world, and into each cuboid's frame
+/// and slab-tested, this many at a time (`avx.rs`).
+const LANES: usize = 8;
+/// [`CuboidLanes::code`]s: what `cast_cuboid` returned for a lane.
+const MISS: f32 = 0.0;
+const INSIDE: f32 = 1.0;
+const ENTERS: f32 = 2.0;
+const ASK: f32 = 3.0;
+
+/// One row's world ray directions in columns, a whole group of lanes longer than the row.
+#[derive(Debug, Clone, Default)]
+struct Columns {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Columns {
+    fn resize(&mut self, n: usize) {
+        for c in [&mut self.x, &mut self.y, &mut self.z] {
+            c.resize(n, 0.0);
+        }
+    }
+
+    fn get(&self, u: usize) -> Vector {
+        Vector::new(self.x[u], self.y[u], self.z[u])
+    }
+}
+
+/// `cast_cuboid` for the rays of `LANES` consecutive pixels, in columns: `code` says what it
+/// returned (MISS for no hit, ASK for None), `toi` and `side` describe a hit, and `dir` holds
+/// each ray's direction in the cuboid's frame for the lanes parry must cast.
+#[derive(Debug, Clone, Copy, Default)]
+struct CuboidLanes {
+    dir: [[f32; LANES]; 3],
+    code: [f32; LANES],
+    toi: [f32; LANES],
+    side: [f32; LANES],
+}
+
+impl CuboidLanes {
+    /// Lane `j`'s hit, asking parry where `cast_cuboid` could not answer.
+    #[inline]
+    fn found(&self, j: usize, cuboid: &Cuboid, origin: Vector, max_toi: f32) -> Option<Found> {
+        let side = self.side[j] as i8;
+        match self.code[j] {
+            INSIDE => Some(Found::Cuboid(CuboidHit::Inside { side })),
+            ENTERS => Some(Found::Cuboid(CuboidHit::Enters {
+                toi: self.toi[j],
+                side,
+            })),
+            ASK => {
+                let dir = Vector::new(self.dir[0][j], self.dir[1][j], self.dir[2][j]);
+                cuboid
+                    .cast_local_ray_and_get_normal(&Ray::new(origin, dir), max_toi, true)
+                    .map(Found::Shape)
+            }
+            _ => None,
+        }
+    }
+
+    /// What the AVX kernel computes, lane by lane with the scalar code, for the lanes in
+    /// `active` (a bit per lane).
+    #[allow(clippy::too_many_arguments)]
+    fn cast_scalar(
+        &mut self,
+        half: Vector,
+        origin: Vector,
+        inv_rotation: Rotation,
+        world: &Columns,
+        u: usize,
+        max_toi: f32,
+        active: u32,
+    ) {
+        for j in (0..LANES).filter(|j| active & (1 << j) != 0) {
+            let dir = inv_rotation * world.get(u + j);
+            for (col, x) in self.dir.iter_mut().zip(dir.to_array()) {
+                col[j] = x;
+            }
+            let (code, toi, side) = match cast_cuboid(half, &Ray::new(origin, dir), max_toi) {
+                None => (ASK, 0.0, 0),
+                Some(None) => (MISS, 0.0, 0),
+                Some(Some(CuboidHit::Inside { side })) => (INSIDE, 0.0, side),
+                Some(Some(CuboidHit::Enters { toi, side })) => (ENTERS, toi, side),
+            };
+            self.code[j] = code;
+            self.toi[j] = toi;
+            self.side[j] = side as f32;
+        }
+    }
+}
+
+/// A pixel's search so far: its nearest hit (candidate index and hit), the nearest other hit
+/// (for ties), and whether the remaining candidates are all too far to matter.
+#[derive(Debug, Clone, Copy)]
+struct PixelSearch {
+    best: Option<(usize, Found)>,
+    second: f32,
+    done: bool,
+}
+
+impl PixelSearch {
+    const START: PixelSearch = PixelSearch {
+        best: None,
+        second: f32::INFINITY,
+        done: false,
+    };
+
+    /// Whether candidate `near` (sorted by it) may still give or tie this pixel's hit; once
+    /// it may not, no later candidate can.
+    #[inline]
+    fn wants(&mut self, near: f32) -> bool {
+        if self.done {
+            return false;
+        }
+        if let Some((_, b)) = &self.best {
+            if near > b.toi() * (1.0 + 2.0 * TIE) {
+                self.done = true;
+                return false;
+            }
+        }
+        true
+    }
+
+    #[inline]
+    fn offer(&mut self, k: usize, hit: Option<Found>) {
+        let Some(hit) = hit else {
+            return;
+        };
+        match &self.best {
+            Some((_, b)) if hit.toi() >= b.toi() => {
+                self.second = self.second.min(hit.toi());
+            }
+            _ => {
+                if let Some((_, b)) = &self.best {
+                    self.second = self.second.min(b.toi());
+                }
+                self.best = Some((k, hit));
+            }
+        }
+    }
+}
+
 /// Per-frame culling state; keep one per camera and reuse it (no allocation per frame once
 /// warmed up).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct FrustumCaster {
     candidates: Vec<Candidate>,
     /// Candidates whose rows cover the current row (indices into `candidates`).
     row: Vec<usize>,
+    /// The current row's world ray directions and per-pixel searches.
+    world: Columns,
+    pixels: Vec<PixelSearch>,
+    lanes: CuboidLanes,
+    /// Whether the AVX kernels run (else their scalar twins).
+    simd: bool,
     /// Pixels that fell back to the pipeline in the last frame (for tests and benches).
     fallbacks: usize,
 }
@@ -79,9 +231,36 @@ pub struct FrustumCaster {
 /// What one pixel's cast found: the collider and the pipeline's hit.
 pub type Hit = (ColliderHandle, RayIntersection);
 
+impl Default for FrustumCaster {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl FrustumCaster {
     pub fn new() -> Self {
-        Self::default()
+        #[cfg(target_arch = "x86_64")]
+        let simd = avx::available();
+        #[cfg(not(target_arch = "x86_64"))]
+        let simd = false;
+        Self {
+            candidates: Vec::new(),
+            row: Vec::new(),
+            world: Columns::default(),
+            pixels: Vec::new(),
+            lanes: CuboidLanes::default(),
+            simd,
+            fallbacks: 0,
+        }
+    }
+
+    /// A caster that never runs the AVX kernels: the portable path, for tests and benches
+    /// on processors that have AVX.
+    pub fn without_simd() -> Self {
+        Self {
+            simd: false,
+            ..Self::new()
+        }
     }
 
     /// Pixels of the last [`FrustumCaster::render`] that needed the pipeline.
@@ -94,6 +273,11 @@ impl FrustumCaster {
     /// every pixel, in order, with exactly what
     /// `query.cast_ray_and_get_normal(&Ray::new(cam.translation, cam.rotation * dirs[i]),
     /// max_toi, true)` returns.
+    ///
+    /// A row is searched candidate by candidate, nearest first, over the pixels each covers,
+    /// so that the rays of neighbouring pixels are cast on a cuboid together. Each pixel still
+    /// meets its candidates in the same order, and stops at the same one, as when it was
+    /// searched on its own.
     pub fn render(
         &mut self,
         query: &QueryPipeline,
@@ -106,69 +290,17 @@ impl FrustumCaster {
         debug_assert_eq!(dirs.len(), pin.width * pin.height);
         self.prepare(query, cam, pin, max_toi);
         self.fallbacks = 0;
-        let colliders = query.colliders;
         let origin = cam.translation;
+        let w = pin.width;
+        self.world.resize(w.div_ceil(LANES) * LANES + LANES);
         for v in 0..pin.height {
-            self.row.clear();
-            self.row.extend(
-                self.candidates
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, c)| c.v0 <= v && v <= c.v1)
-                    .map(|(k, _)| k),
-            );
-            for u in 0..pin.width {
-                let i = v * pin.width + u;
-                let dir = cam.rotation * dirs[i];
-                let ray = Ray::new(origin, dir);
-                // Best so far: candidate index and its hit (in the candidate's frame for a
-                // cuboid, until it is returned).
-                let mut best: Option<(usize, Found)> = None;
-                let mut second = f32::INFINITY;
-                for &k in &self.row {
-                    let c = &self.candidates[k];
-                    if u < c.u0 || u > c.u1 {
-                        continue;
-                    }
-                    if let Some((_, b)) = &best {
-                        // Sorted by `near`: nothing further on can be nearer or tie.
-                        if c.near > b.toi() * (1.0 + 2.0 * TIE) {
-                            break;
-                        }
-                    }
-                    let hit = match &c.cuboid {
-                        Some(cuboid) => {
-                            let local = Ray::new(c.local_origin, c.inv_rotation * dir);
-                            match cast_cuboid(cuboid.half_extents, &local, max_toi) {
-                                Some(hit) => hit.map(Found::Cuboid),
-                                None => cuboid
-                                    .cast_local_ray_and_get_normal(&local, max_toi, true)
-                                    .map(Found::Shape),
-                            }
-                        }
-                        None => {
-                            let co = &colliders[c.handle];
-                            co.shape()
-                                .cast_ray_and_get_normal(co.position(), &ray, max_toi, true)
-                                .map(Found::Shape)
-                        }
-                    };
-                    let Some(hit) = hit else {
-                        continue;
-                    };
-                    match &best {
-                        Some((_, b)) if hit.toi() >= b.toi() => {
-                            second = second.min(hit.toi());
-                        }
-                        _ => {
-                            if let Some((_, b)) = &best {
-                                second = second.min(b.toi());
-                            }
-                            best = Some((k, hit));
-                        }
-                    }
-                }
-                let best: Option<Hit> = best.map(|(k, hit)| {
+            self.search_row(query, cam, v, &dirs[v * w..(v + 1) * w], max_toi);
+            // Only this loop is generic in `out`, so that `out` is inlined into it: a hit
+            // passed to it through memory just after being written stalled its reads.
+            for (u, p) in self.pixels.iter().enumerate() {
+                let i = v * w + u;
+                let dir = self.world.get(u);
+                let best: Option<Hit> = p.best.map(|(k, hit)| {
                     let c = &self.candidates[k];
                     let hit = hit.intersection();
                     match c.cuboid {
@@ -180,14 +312,123 @@ impl FrustumCaster {
                     None => true,
                     Some((_, b)) => {
                         let t = b.time_of_impact;
-                        second - t > TIE * t.max(1e-3) && max_toi - t > TIE * max_toi
+                        p.second - t > TIE * t.max(1e-3) && max_toi - t > TIE * max_toi
                     }
                 };
                 if certain {
                     out(i, dir, best);
                 } else {
                     self.fallbacks += 1;
+                    let ray = Ray::new(origin, dir);
                     out(i, dir, query.cast_ray_and_get_normal(&ray, max_toi, true));
+                }
+            }
+        }
+    }
+
+    /// Searches row `v` (its camera-frame directions `row_dirs`): the row's world directions
+    /// and each pixel's nearest hit and nearest other hit, in `world` and `pixels`.
+    fn search_row(
+        &mut self,
+        query: &QueryPipeline,
+        cam: &Pose,
+        v: usize,
+        row_dirs: &[Vector],
+        max_toi: f32,
+    ) {
+        let colliders = query.colliders;
+        let origin = cam.translation;
+        let w = row_dirs.len();
+        let Self {
+            candidates,
+            row,
+            world,
+            pixels,
+            lanes,
+            simd,
+            ..
+        } = self;
+        let simd = *simd;
+        row.clear();
+        row.extend(
+            candidates
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.v0 <= v && v <= c.v1)
+                .map(|(k, _)| k),
+        );
+        if simd {
+            // SAFETY: `simd` is set only where the processor has AVX, and the columns
+            // hold a whole group past the row.
+            #[cfg(target_arch = "x86_64")]
+            unsafe {
+                avx::rotate_row(cam.rotation, row_dirs, world)
+            };
+        } else {
+            for (u, d) in row_dirs.iter().enumerate() {
+                let r = cam.rotation * *d;
+                (world.x[u], world.y[u], world.z[u]) = (r.x, r.y, r.z);
+            }
+        }
+        pixels.clear();
+        pixels.resize(w, PixelSearch::START);
+        for &k in row.iter() {
+            let c = &candidates[k];
+            for u in (c.u0..=c.u1).step_by(LANES) {
+                let n = (c.u1 + 1 - u).min(LANES);
+                let mut active = 0u32;
+                for (j, p) in pixels[u..u + n].iter_mut().enumerate() {
+                    if p.wants(c.near) {
+                        active |= 1 << j;
+                    }
+                }
+                if active == 0 {
+                    continue;
+                }
+                let lanes_of = |active: u32| (0..n).filter(move |j| active & (1 << j) != 0);
+                match &c.cuboid {
+                    Some(cuboid) => {
+                        if simd {
+                            // SAFETY: as above; the columns hold `u + LANES` values.
+                            #[cfg(target_arch = "x86_64")]
+                            unsafe {
+                                avx::cuboid_lanes(
+                                    cuboid.half_extents,
+                                    c.local_origin,
+                                    c.inv_rotation,
+                                    world,
+                                    u,
+                                    max_toi,
+                                    lanes,
+                                )
+                            };
+                        } else {
+                            lanes.cast_scalar(
+                                cuboid.half_extents,
+                                c.local_origin,
+                                c.inv_rotation,
+                                world,
+                                u,
+                                max_toi,
+                                active,
+                            );
+                        }
+                        for j in lanes_of(active) {
+                            let hit = lanes.found(j, cuboid, c.local_origin, max_toi);
+                            pixels[u + j].offer(k, hit);
+                        }
+                    }
+                    None => {
+                        let co = &colliders[c.handle];
+                        for j in lanes_of(active) {
+                            let ray = Ray::new(origin, world.get(u + j));
+                            let hit = co
+                                .shape()
+                                .cast_ray_and_get_normal(co.position(), &ray, max_toi, true)
+                                .map(Found::Shape);
+                            pixels[u + j].offer(k, hit);
+                        }
+                    }
                 }
             }
         }
@@ -449,4 +690,129 @@ pub fn cast_cuboid(half: Vector, ray: &Ray, max_toi: f32) -> Option<Option<Cuboi
     } else {
         None
     })
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn columns(dirs: &[Vector]) -> Columns {
+        let mut c = Columns::default();
+        c.resize(dirs.len() + LANES);
+        for (u, d) in dirs.iter().enumerate() {
+            (c.x[u], c.y[u], c.z[u]) = (d.x, d.y, d.z);
+        }
+        c
+    }
+
+    fn random_rotation(rng: &mut ChaCha8Rng) -> Rotation {
+        (Rotation::from_rotation_z(rng.random_range(-3.2..3.2))
+            * Rotation::from_rotation_y(rng.random_range(-1.6..1.6))
+            * Rotation::from_rotation_x(rng.random_range(-3.2..3.2)))
+        .normalize()
+    }
+
+    /// Rays from random, axis-aligned and zero directions (every branch of the slab test:
+    /// misses, hits from inside and outside, ties at edges and corners, parry's cases).
+    fn random_dirs(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vector> {
+        (0..n)
+            .map(|k| {
+                let mut d = Vector::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                match k % 11 {
+                    0 => d.x = 0.0,
+                    1 => d = Vector::new(1.0, 1.0, 1.0),
+                    2 => d = Vector::new(-0.0, 0.0, 1.0),
+                    3 => d.z = 1e-40,
+                    4 => d.y = f32::NAN,
+                    _ => {}
+                }
+                d
+            })
+            .collect()
+    }
+
+    #[test]
+    fn avx_kernels_are_the_scalar_code_bit_for_bit() {
+        if !avx::available() {
+            return;
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (mut codes, mut total) = ([0usize; 4], 0);
+        for k in 0..3000 {
+            let q = if k % 5 == 0 {
+                Rotation::IDENTITY
+            } else {
+                random_rotation(&mut rng)
+            };
+            let dirs = random_dirs(&mut rng, 2 * LANES + 3);
+            let mut simd = Columns::default();
+            simd.resize(dirs.len().div_ceil(LANES) * LANES + LANES);
+            // SAFETY: checked above; the columns hold a group past the row.
+            unsafe { avx::rotate_row(q, &dirs, &mut simd) };
+            for (u, d) in dirs.iter().enumerate() {
+                let want = (q * *d).to_array().map(f32::to_bits);
+                assert_eq!(
+                    simd.get(u).to_array().map(f32::to_bits),
+                    want,
+                    "{q:?} {d:?}"
+                );
+            }
+            let world = columns(&dirs);
+            let half = Vector::new(
+                rng.random_range(0.01..3.0),
+                rng.random_range(0.01..3.0),
+                rng.random_range(0.01..3.0),
+            );
+            // Half the origins on a face, edge or corner's extension (tied slabs).
+            let mut origin = Vector::new(
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-4.0..4.0),
+            );
+            if k % 2 == 0 {
+                origin.x = half.x;
+            }
+            let inv = random_rotation(&mut rng);
+            let max_toi = rng.random_range(0.5..8.0);
+            for u in [0, LANES, LANES + 3] {
+                let (mut a, mut b) = (CuboidLanes::default(), CuboidLanes::default());
+                // SAFETY: as above.
+                unsafe { avx::cuboid_lanes(half, origin, inv, &world, u, max_toi, &mut a) };
+                b.cast_scalar(
+                    half,
+                    origin,
+                    inv,
+                    &world,
+                    u,
+                    max_toi,
+                    u32::MAX >> (32 - LANES),
+                );
+                for j in 0..LANES {
+                    let what = format!("{half:?} {origin:?} {inv:?} {:?}", world.get(u + j));
+                    let bits = |l: &CuboidLanes| l.dir.map(|c| c[j].to_bits());
+                    assert_eq!(bits(&a), bits(&b), "{what}");
+                    assert_eq!(a.code[j], b.code[j], "{what}");
+                    if b.code[j] == INSIDE || b.code[j] == ENTERS {
+                        assert_eq!(a.side[j], b.side[j], "{what}");
+                    }
+                    if b.code[j] == ENTERS {
+                        assert_eq!(a.toi[j].to_bits(), b.toi[j].to_bits(), "{what}");
+                    }
+                    codes[b.code[j] as usize] += 1;
+                    total += 1;
+                }
+            }
+        }
+        // Every answer occurs often enough to have been compared.
+        assert!(
+            codes.iter().all(|&c| c * 50 > total),
+            "{codes:?} of {total}"
+        );
+    }
 }

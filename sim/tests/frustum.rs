@@ -118,30 +118,36 @@ fn compare_hits(scene: &Scene, cam: &Pose, spec: &DepthCameraSpec, what: &str) -
     let max_toi = (spec.range_max / min_axial) as f32;
     let filter = QueryFilter::default().groups(Scene::sensor_groups());
     let query = scene.physics.query_pipeline_with_filter(filter);
-    let mut caster = FrustumCaster::new();
-    let mut hits = 0;
-    caster.render(&query, cam, &pin, &dirs, max_toi, |i, dir, got| {
-        assert_eq!(dir, cam.rotation * dirs[i]);
-        let want = query.cast_ray_and_get_normal(&Ray::new(cam.translation, dir), max_toi, true);
-        match (want, got) {
-            (None, None) => {}
-            (Some((ha, a)), Some((hb, b))) => {
-                assert_eq!(ha, hb, "{what}: pixel {i}: collider");
-                assert_eq!(
-                    a.time_of_impact.to_bits(),
-                    b.time_of_impact.to_bits(),
-                    "{what}: pixel {i}: {} vs {}",
-                    a.time_of_impact,
-                    b.time_of_impact
-                );
-                assert_eq!(a.normal, b.normal, "{what}: pixel {i}: normal");
-                hits += 1;
+    // The AVX kernels where the processor has them, and the portable path.
+    let mut fallbacks = [0; 2];
+    for (f, mut caster) in fallbacks
+        .iter_mut()
+        .zip([FrustumCaster::new(), FrustumCaster::without_simd()])
+    {
+        caster.render(&query, cam, &pin, &dirs, max_toi, |i, dir, got| {
+            assert_eq!(dir, cam.rotation * dirs[i]);
+            let want =
+                query.cast_ray_and_get_normal(&Ray::new(cam.translation, dir), max_toi, true);
+            match (want, got) {
+                (None, None) => {}
+                (Some((ha, a)), Some((hb, b))) => {
+                    assert_eq!(ha, hb, "{what}: pixel {i}: collider");
+                    assert_eq!(
+                        a.time_of_impact.to_bits(),
+                        b.time_of_impact.to_bits(),
+                        "{what}: pixel {i}: {} vs {}",
+                        a.time_of_impact,
+                        b.time_of_impact
+                    );
+                    assert_eq!(a.normal, b.normal, "{what}: pixel {i}: normal");
+                }
+                (a, b) => panic!("{what}: pixel {i}: {a:?} vs {b:?}"),
             }
-            (a, b) => panic!("{what}: pixel {i}: {a:?} vs {b:?}"),
-        }
-    });
-    let _ = hits;
-    caster.fallbacks()
+        });
+        *f = caster.fallbacks();
+    }
+    assert_eq!(fallbacks[0], fallbacks[1], "{what}: fallbacks");
+    fallbacks[0]
 }
 
 #[test]

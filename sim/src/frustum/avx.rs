@@ -1,0 +1,186 @@
+//! The caster's two per-ray costs eight pixels at a time with AVX: turning a row's camera-
+//! frame directions into the world, and a cuboid's slab test (`cast_cuboid`) after turning the
+//! rays into the cuboid's frame. Each lane performs the scalar code's operations in its order
+//! and without fused multiply-adds — glam's `Quat * Vec3` (its SSE2 path: the vector part's
+//! dot products summed x, y then z, the cross product as `a.zxy * b − a * b.zxy` rotated back)
+//! and parry's slab test as `cast_cuboid` writes it — so every lane is the scalar result bit
+//! for bit (the tests compare them on random and degenerate rays).
+
+use super::{Columns, CuboidLanes, LANES};
+use rapier3d::prelude::{Rotation, Vector};
+use std::arch::x86_64::*;
+
+/// Whether this processor runs the kernels below.
+pub(super) fn available() -> bool {
+    std::arch::is_x86_feature_detected!("avx")
+}
+
+/// glam's `q * v` on eight vectors at once.
+#[inline]
+#[target_feature(enable = "avx")]
+fn rotate(q: Rotation, v: [__m256; 3]) -> [__m256; 3] {
+    let two = _mm256_set1_ps(2.0);
+    let (bx, by, bz, w) = (
+        _mm256_set1_ps(q.x),
+        _mm256_set1_ps(q.y),
+        _mm256_set1_ps(q.z),
+        _mm256_set1_ps(q.w),
+    );
+    let b2 = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(bx, bx), _mm256_mul_ps(by, by)),
+        _mm256_mul_ps(bz, bz),
+    );
+    let ww_b2 = _mm256_sub_ps(_mm256_mul_ps(w, w), b2);
+    let [vx, vy, vz] = v;
+    let vb = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(vx, bx), _mm256_mul_ps(vy, by)),
+        _mm256_mul_ps(vz, bz),
+    );
+    let vb2 = _mm256_mul_ps(vb, two);
+    let w2 = _mm256_mul_ps(w, two);
+    let cross = [
+        _mm256_sub_ps(_mm256_mul_ps(by, vz), _mm256_mul_ps(vy, bz)),
+        _mm256_sub_ps(_mm256_mul_ps(bz, vx), _mm256_mul_ps(vz, bx)),
+        _mm256_sub_ps(_mm256_mul_ps(bx, vy), _mm256_mul_ps(vx, by)),
+    ];
+    let b = [bx, by, bz];
+    std::array::from_fn(|i| {
+        _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(v[i], ww_b2), _mm256_mul_ps(b[i], vb2)),
+            _mm256_mul_ps(cross[i], w2),
+        )
+    })
+}
+
+/// `out[u] = q * dirs[u]` for every pixel of a row (the columns are padded to whole groups).
+///
+/// # Safety
+/// The processor has AVX.
+#[target_feature(enable = "avx")]
+pub(super) unsafe fn rotate_row(q: Rotation, dirs: &[Vector], out: &mut Columns) {
+    let mut gather = [[0f32; LANES]; 3];
+    for (g, chunk) in dirs.chunks(LANES).enumerate() {
+        for (j, d) in chunk.iter().enumerate() {
+            gather[0][j] = d.x;
+            gather[1][j] = d.y;
+            gather[2][j] = d.z;
+        }
+        let v = gather.map(|c| unsafe { _mm256_loadu_ps(c.as_ptr()) });
+        let r = rotate(q, v);
+        let at = g * LANES;
+        for (col, r) in [&mut out.x, &mut out.y, &mut out.z].into_iter().zip(r) {
+            // The columns hold a whole group past the row's end.
+            unsafe { _mm256_storeu_ps(col[at..at + LANES].as_mut_ptr(), r) };
+        }
+    }
+}
+
+/// `cast_cuboid` of the rays from `origin` (the cuboid's frame) along `inv_rotation` times
+/// the world directions of pixels `u..u + LANES`, into `out`.
+///
+/// # Safety
+/// The processor has AVX, and the columns hold `u + LANES` values.
+#[target_feature(enable = "avx")]
+pub(super) unsafe fn cuboid_lanes(
+    half: Vector,
+    origin: Vector,
+    inv_rotation: Rotation,
+    world: &Columns,
+    u: usize,
+    max_toi: f32,
+    out: &mut CuboidLanes,
+) {
+    let load = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
+    let d = rotate(
+        inv_rotation,
+        [load(&world.x), load(&world.y), load(&world.z)],
+    );
+    for (col, d) in out.dir.iter_mut().zip(d) {
+        unsafe { _mm256_storeu_ps(col.as_mut_ptr(), d) };
+    }
+    let (o, h) = (origin.to_array(), half.to_array());
+    let zero = _mm256_setzero_ps();
+    let one = _mm256_set1_ps(1.0);
+    let inf = _mm256_set1_ps(f32::INFINITY);
+    let abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+    let truth = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    let mut tmax = _mm256_set1_ps(f32::MAX);
+    let mut tmin = _mm256_set1_ps(-f32::MAX);
+    let (mut near_side, mut far_side) = (zero, zero);
+    let (mut near_diag, mut far_diag) = (zero, zero);
+    // Lanes whose answer is settled (`cast_cuboid` returned), and of those the ones it
+    // returned None (ask parry) for; the rest of the settled lanes missed.
+    let mut settled = zero;
+    let mut ask = zero;
+    for i in 0..3 {
+        let di = d[i];
+        let denom = _mm256_div_ps(one, di);
+        let bad = _mm256_or_ps(
+            _mm256_or_ps(
+                _mm256_cmp_ps::<_CMP_EQ_OQ>(di, zero),
+                _mm256_cmp_ps::<_CMP_UNORD_Q>(di, di),
+            ),
+            // Not finite: |denom| < ∞ fails (NaN too).
+            _mm256_xor_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_and_ps(denom, abs_mask), inf),
+                truth,
+            ),
+        );
+        ask = _mm256_or_ps(ask, _mm256_andnot_ps(settled, bad));
+        settled = _mm256_or_ps(settled, bad);
+        let a = _mm256_mul_ps(_mm256_set1_ps(-h[i] - o[i]), denom);
+        let b = _mm256_mul_ps(_mm256_set1_ps(h[i] - o[i]), denom);
+        let flip = _mm256_cmp_ps::<_CMP_GT_OQ>(a, b);
+        let near = _mm256_blendv_ps(a, b, flip);
+        let far = _mm256_blendv_ps(b, a, flip);
+        let side = _mm256_set1_ps(i as f32 + 1.0);
+        let neg_side = _mm256_set1_ps(-(i as f32 + 1.0));
+        let near_gt = _mm256_cmp_ps::<_CMP_GT_OQ>(near, tmin);
+        let near_eq = _mm256_cmp_ps::<_CMP_EQ_OQ>(near, tmin);
+        tmin = _mm256_blendv_ps(tmin, near, near_gt);
+        near_side = _mm256_blendv_ps(near_side, _mm256_blendv_ps(side, neg_side, flip), near_gt);
+        near_diag = _mm256_andnot_ps(near_gt, _mm256_or_ps(near_diag, near_eq));
+        let far_lt = _mm256_cmp_ps::<_CMP_LT_OQ>(far, tmax);
+        let far_eq = _mm256_cmp_ps::<_CMP_EQ_OQ>(far, tmax);
+        tmax = _mm256_blendv_ps(tmax, far, far_lt);
+        far_side = _mm256_blendv_ps(far_side, _mm256_blendv_ps(neg_side, side, flip), far_lt);
+        far_diag = _mm256_andnot_ps(far_lt, _mm256_or_ps(far_diag, far_eq));
+        let miss = _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(tmax, zero),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(tmin, tmax),
+        );
+        settled = _mm256_or_ps(settled, miss);
+    }
+    let degenerate = _mm256_or_ps(
+        _mm256_or_ps(near_diag, far_diag),
+        _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(near_side, zero),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(far_side, zero),
+        ),
+    );
+    ask = _mm256_or_ps(ask, _mm256_andnot_ps(settled, degenerate));
+    settled = _mm256_or_ps(settled, degenerate);
+    let open = _mm256_xor_ps(settled, truth);
+    let inside = _mm256_and_ps(open, _mm256_cmp_ps::<_CMP_LT_OQ>(tmin, zero));
+    let enters = _mm256_andnot_ps(
+        inside,
+        _mm256_and_ps(
+            open,
+            _mm256_cmp_ps::<_CMP_LE_OQ>(tmin, _mm256_set1_ps(max_toi)),
+        ),
+    );
+    // Codes as in `CuboidLanes`: MISS 0, INSIDE 1, ENTERS 2, ASK 3.
+    let code = _mm256_or_ps(
+        _mm256_and_ps(ask, _mm256_set1_ps(super::ASK)),
+        _mm256_or_ps(
+            _mm256_and_ps(inside, _mm256_set1_ps(super::INSIDE)),
+            _mm256_and_ps(enters, _mm256_set1_ps(super::ENTERS)),
+        ),
+    );
+    let side = _mm256_blendv_ps(near_side, far_side, inside);
+    unsafe {
+        _mm256_storeu_ps(out.code.as_mut_ptr(), code);
+        _mm256_storeu_ps(out.toi.as_mut_ptr(), tmin);
+        _mm256_storeu_ps(out.side.as_mut_ptr(), side);
+    }
+}
