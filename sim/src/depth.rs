@@ -121,6 +121,7 @@ impl DepthCamera {
         let (lo, hi) = (self.spec.range_min as f32, self.spec.range_max as f32);
         let cos_max = self.cos_max_incidence;
         let (truth, axial) = (&mut self.truth, &self.axial);
+        let mut last = None;
         self.caster.render(
             &query,
             &cam,
@@ -128,7 +129,7 @@ impl DepthCamera {
             &self.dirs,
             self.max_ray,
             |i, dir, hit| {
-                truth[i] = pixel_depth(scene, dir, hit, axial[i], lo, hi, cos_max);
+                truth[i] = pixel_depth(scene, &mut last, dir, hit, axial[i], lo, hi, cos_max);
             },
         );
     }
@@ -144,7 +145,16 @@ impl DepthCamera {
             let dir = cam.rotation * *d;
             let ray = Ray::new(cam.translation, dir);
             let hit = query.cast_ray_and_get_normal(&ray, self.max_ray, true);
-            *t = pixel_depth(scene, dir, hit, c, lo, hi, self.cos_max_incidence);
+            *t = pixel_depth(
+                scene,
+                &mut None,
+                dir,
+                hit,
+                c,
+                lo,
+                hi,
+                self.cos_max_incidence,
+            );
         }
     }
 
@@ -196,10 +206,14 @@ impl DepthCamera {
 }
 
 /// The depth a pixel reports for its first hit: 0 on nothing, glass, grazing incidence or out
-/// of range; else the distance along the optical axis (`c` = cosine to the axis).
+/// of range; else the distance along the optical axis (`c` = cosine to the axis). `last`
+/// remembers the last collider looked up and whether it is glass: neighbouring pixels mostly
+/// hit the same one.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn pixel_depth(
     scene: &Scene,
+    last: &mut Option<(ColliderHandle, bool)>,
     dir: Vector,
     hit: Option<Hit>,
     c: f32,
@@ -211,10 +225,20 @@ fn pixel_depth(
         None => 0.0,
         Some((h, hit)) => {
             let z = hit.time_of_impact * c;
-            let surface = scene.laser_surface(scene.physics.colliders[h].user_data);
-            let glass = matches!(surface, LaserSurface::Glass { .. });
+            let glass = match *last {
+                Some((k, glass)) if k == h => glass,
+                _ => {
+                    let surface = scene.laser_surface(scene.physics.colliders[h].user_data);
+                    let glass = matches!(surface, LaserSurface::Glass { .. });
+                    *last = Some((h, glass));
+                    glass
+                }
+            };
             let grazing = dir.dot(hit.normal).abs() < cos_max_incidence;
-            if glass || grazing || z < lo || z > hi {
+            // Without short-circuits: which test fails varies from pixel to pixel, and a
+            // branch per test mispredicted.
+            let invalid = glass | grazing | (z < lo) | (z > hi);
+            if invalid {
                 0.0
             } else {
                 z

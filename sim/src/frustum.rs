@@ -66,6 +66,24 @@ struct Candidate {
     pose: Pose,
     inv_rotation: Rotation,
     local_origin: Vector,
+    /// A cuboid's face normals in the world, `pose.rotation` times the local ones, as
+    /// `RayIntersection::transform_by` turns them: sides −3..3 at 0..6 (3: a ray from
+    /// inside, whose normal is zero). Turned once per frame instead of once per pixel.
+    world_normals: [Vector; 7],
+}
+
+impl Candidate {
+    /// A cuboid hit in the world frame: `hit.intersection().transform_by(&self.pose)`.
+    #[inline]
+    fn world_hit(&self, hit: CuboidHit) -> RayIntersection {
+        let side = match hit {
+            CuboidHit::Inside { .. } => 0,
+            CuboidHit::Enters { side, .. } => side,
+        };
+        let mut r = hit.intersection();
+        r.normal = self.world_normals[(side + 3) as usize];
+        r
+    }
 }
 
 /// Pixels cast together: a row's rays are turned into the world, and into each cuboid's frame
@@ -109,9 +127,9 @@ struct CuboidLanes {
 }
 
 impl CuboidLanes {
-    /// Lane `j`'s hit, asking parry where `cast_cuboid` could not answer.
+    /// Lane `j`'s hit where `cast_cuboid` answered.
     #[inline]
-    fn found(&self, j: usize, cuboid: &Cuboid, origin: Vector, max_toi: f32) -> Option<Found> {
+    fn found(&self, j: usize) -> Option<Found> {
         let side = self.side[j] as i8;
         match self.code[j] {
             INSIDE => Some(Found::Cuboid(CuboidHit::Inside { side })),
@@ -119,14 +137,17 @@ impl CuboidLanes {
                 toi: self.toi[j],
                 side,
             })),
-            ASK => {
-                let dir = Vector::new(self.dir[0][j], self.dir[1][j], self.dir[2][j]);
-                cuboid
-                    .cast_local_ray_and_get_normal(&Ray::new(origin, dir), max_toi, true)
-                    .map(Found::Shape)
-            }
             _ => None,
         }
+    }
+
+    /// Lane `j`'s hit where `cast_cuboid` could not answer: parry's.
+    #[inline]
+    fn ask_parry(&self, j: usize, cuboid: &Cuboid, origin: Vector, max_toi: f32) -> Option<Found> {
+        let dir = Vector::new(self.dir[0][j], self.dir[1][j], self.dir[2][j]);
+        cuboid
+            .cast_local_ray_and_get_normal(&Ray::new(origin, dir), max_toi, true)
+            .map(Found::Shape)
     }
 
     /// What the AVX kernel computes, lane by lane with the scalar code, for the lanes in
@@ -160,54 +181,153 @@ impl CuboidLanes {
     }
 }
 
-/// A pixel's search so far: its nearest hit (candidate index and hit), the nearest other hit
-/// (for ties), and whether the remaining candidates are all too far to matter.
-#[derive(Debug, Clone, Copy)]
-struct PixelSearch {
-    best: Option<(usize, Found)>,
-    second: f32,
-    done: bool,
+/// [`RowSearch::code`] of a nearest hit kept in [`RowSearch::shape`].
+const SHAPE: f32 = 4.0;
+
+/// Each pixel's search so far, for one row, in columns (the AVX kernel reads and updates
+/// eight pixels at a time): its nearest hit, the nearest other hit (for ties), and whether
+/// the remaining candidates are all too far to matter. The columns run a whole group of
+/// lanes past the row.
+#[derive(Debug, Clone, Default)]
+struct RowSearch {
+    /// Time of the nearest hit (∞ before the first).
+    toi: Vec<f32>,
+    second: Vec<f32>,
+    /// All bits set once the pixel is done.
+    done: Vec<u32>,
+    /// The nearest hit's candidate.
+    cand: Vec<u32>,
+    /// The nearest hit: MISS for none yet, INSIDE or ENTERS (with `side` and `toi`) for a
+    /// cuboid's, SHAPE for one in `shape`.
+    code: Vec<f32>,
+    side: Vec<f32>,
+    shape: Vec<RayIntersection>,
 }
 
-impl PixelSearch {
-    const START: PixelSearch = PixelSearch {
-        best: None,
-        second: f32::INFINITY,
-        done: false,
-    };
+impl RowSearch {
+    fn reset(&mut self, n: usize) {
+        for (c, x) in [
+            (&mut self.toi, f32::INFINITY),
+            (&mut self.second, f32::INFINITY),
+        ] {
+            c.clear();
+            c.resize(n, x);
+        }
+        self.code.clear();
+        self.code.resize(n, MISS);
+        self.done.clear();
+        self.done.resize(n, 0);
+        self.cand.resize(n, 0);
+        self.side.resize(n, 0.0);
+        self.shape.resize(
+            n,
+            RayIntersection::new(0.0, Vector::ZERO, FeatureId::Unknown),
+        );
+    }
 
-    /// Whether candidate `near` (sorted by it) may still give or tie this pixel's hit; once
+    /// Whether candidate `near` (sorted by it) may still give or tie pixel `u`'s hit; once
     /// it may not, no later candidate can.
     #[inline]
-    fn wants(&mut self, near: f32) -> bool {
-        if self.done {
+    fn wants(&mut self, u: usize, near: f32) -> bool {
+        if self.done[u] != 0 {
             return false;
         }
-        if let Some((_, b)) = &self.best {
-            if near > b.toi() * (1.0 + 2.0 * TIE) {
-                self.done = true;
-                return false;
-            }
+        // Before the first hit the threshold is ∞: every candidate is wanted.
+        if near > self.toi[u] * (1.0 + 2.0 * TIE) {
+            self.done[u] = u32::MAX;
+            return false;
         }
         true
     }
 
     #[inline]
-    fn offer(&mut self, k: usize, hit: Option<Found>) {
+    fn offer(&mut self, u: usize, k: usize, hit: Option<Found>) {
         let Some(hit) = hit else {
             return;
         };
-        match &self.best {
-            Some((_, b)) if hit.toi() >= b.toi() => {
-                self.second = self.second.min(hit.toi());
+        let t = hit.toi();
+        // Not nearer: the nearest other. Nearer: the old nearest (∞ if none) is.
+        if t >= self.toi[u] {
+            self.second[u] = self.second[u].min(t);
+            return;
+        }
+        self.second[u] = self.second[u].min(self.toi[u]);
+        self.toi[u] = t;
+        self.cand[u] = k as u32;
+        match hit {
+            Found::Cuboid(CuboidHit::Inside { side }) => {
+                self.code[u] = INSIDE;
+                self.side[u] = side as f32;
             }
-            _ => {
-                if let Some((_, b)) = &self.best {
-                    self.second = self.second.min(b.toi());
-                }
-                self.best = Some((k, hit));
+            Found::Cuboid(CuboidHit::Enters { side, .. }) => {
+                self.code[u] = ENTERS;
+                self.side[u] = side as f32;
+            }
+            Found::Shape(r) => {
+                self.code[u] = SHAPE;
+                self.shape[u] = r;
             }
         }
+    }
+
+    /// Pixel `u`'s nearest hit and its candidate.
+    #[inline]
+    fn best(&self, u: usize) -> Option<(usize, Found)> {
+        let side = self.side[u] as i8;
+        let found = match self.code[u] {
+            INSIDE => Found::Cuboid(CuboidHit::Inside { side }),
+            ENTERS => Found::Cuboid(CuboidHit::Enters {
+                toi: self.toi[u],
+                side,
+            }),
+            SHAPE => Found::Shape(self.shape[u]),
+            _ => return None,
+        };
+        Some((self.cand[u] as usize, found))
+    }
+
+    /// The scalar twin of `avx::cuboid_lanes`: candidate `k` (a cuboid of half extents
+    /// `half`) offered to pixels `u..u + n`. Returns the lanes parry must cast (their rays
+    /// in `lanes.dir`).
+    #[allow(clippy::too_many_arguments)]
+    fn cuboid_scalar(
+        &mut self,
+        c: &Candidate,
+        half: Vector,
+        k: usize,
+        world: &Columns,
+        u: usize,
+        n: usize,
+        max_toi: f32,
+        lanes: &mut CuboidLanes,
+    ) -> u32 {
+        let mut active = 0u32;
+        for j in 0..n {
+            if self.wants(u + j, c.near) {
+                active |= 1 << j;
+            }
+        }
+        if active == 0 {
+            return 0;
+        }
+        lanes.cast_scalar(
+            half,
+            c.local_origin,
+            c.inv_rotation,
+            world,
+            u,
+            max_toi,
+            active,
+        );
+        let mut ask = 0;
+        for j in (0..n).filter(|j| active & (1 << j) != 0) {
+            if lanes.code[j] == ASK {
+                ask |= 1 << j;
+            } else {
+                self.offer(u + j, k, lanes.found(j));
+            }
+        }
+        ask
     }
 }
 
@@ -220,7 +340,7 @@ pub struct FrustumCaster {
     row: Vec<usize>,
     /// The current row's world ray directions and per-pixel searches.
     world: Columns,
-    pixels: Vec<PixelSearch>,
+    search: RowSearch,
     lanes: CuboidLanes,
     /// Whether the AVX kernels run (else their scalar twins).
     simd: bool,
@@ -247,7 +367,7 @@ impl FrustumCaster {
             candidates: Vec::new(),
             row: Vec::new(),
             world: Columns::default(),
-            pixels: Vec::new(),
+            search: RowSearch::default(),
             lanes: CuboidLanes::default(),
             simd,
             fallbacks: 0,
@@ -297,22 +417,24 @@ impl FrustumCaster {
             self.search_row(query, cam, v, &dirs[v * w..(v + 1) * w], max_toi);
             // Only this loop is generic in `out`, so that `out` is inlined into it: a hit
             // passed to it through memory just after being written stalled its reads.
-            for (u, p) in self.pixels.iter().enumerate() {
+            for u in 0..w {
                 let i = v * w + u;
                 let dir = self.world.get(u);
-                let best: Option<Hit> = p.best.map(|(k, hit)| {
+                let best: Option<Hit> = self.search.best(u).map(|(k, hit)| {
                     let c = &self.candidates[k];
-                    let hit = hit.intersection();
-                    match c.cuboid {
-                        Some(_) => (c.handle, hit.transform_by(&c.pose)),
-                        None => (c.handle, hit),
-                    }
+                    let hit = match (c.cuboid, hit) {
+                        (Some(_), Found::Cuboid(h)) => c.world_hit(h),
+                        (Some(_), Found::Shape(h)) => h.transform_by(&c.pose),
+                        (None, h) => h.intersection(),
+                    };
+                    (c.handle, hit)
                 });
                 let certain = match &best {
                     None => true,
                     Some((_, b)) => {
                         let t = b.time_of_impact;
-                        p.second - t > TIE * t.max(1e-3) && max_toi - t > TIE * max_toi
+                        let second = self.search.second[u];
+                        second - t > TIE * t.max(1e-3) && max_toi - t > TIE * max_toi
                     }
                 };
                 if certain {
@@ -327,7 +449,7 @@ impl FrustumCaster {
     }
 
     /// Searches row `v` (its camera-frame directions `row_dirs`): the row's world directions
-    /// and each pixel's nearest hit and nearest other hit, in `world` and `pixels`.
+    /// and each pixel's nearest hit and nearest other hit, in `world` and `search`.
     fn search_row(
         &mut self,
         query: &QueryPipeline,
@@ -343,7 +465,7 @@ impl FrustumCaster {
             candidates,
             row,
             world,
-            pixels,
+            search,
             lanes,
             simd,
             ..
@@ -370,63 +492,42 @@ impl FrustumCaster {
                 (world.x[u], world.y[u], world.z[u]) = (r.x, r.y, r.z);
             }
         }
-        pixels.clear();
-        pixels.resize(w, PixelSearch::START);
+        search.reset(w + LANES);
         for &k in row.iter() {
             let c = &candidates[k];
             for u in (c.u0..=c.u1).step_by(LANES) {
                 let n = (c.u1 + 1 - u).min(LANES);
-                let mut active = 0u32;
-                for (j, p) in pixels[u..u + n].iter_mut().enumerate() {
-                    if p.wants(c.near) {
-                        active |= 1 << j;
-                    }
-                }
-                if active == 0 {
-                    continue;
-                }
-                let lanes_of = |active: u32| (0..n).filter(move |j| active & (1 << j) != 0);
                 match &c.cuboid {
                     Some(cuboid) => {
-                        if simd {
+                        let half = cuboid.half_extents;
+                        let ask = if simd {
                             // SAFETY: as above; the columns hold `u + LANES` values.
                             #[cfg(target_arch = "x86_64")]
                             unsafe {
-                                avx::cuboid_lanes(
-                                    cuboid.half_extents,
-                                    c.local_origin,
-                                    c.inv_rotation,
-                                    world,
-                                    u,
-                                    max_toi,
-                                    lanes,
-                                )
-                            };
+                                avx::cuboid_lanes(c, half, k, world, u, n, max_toi, search, lanes)
+                            }
+                            #[cfg(not(target_arch = "x86_64"))]
+                            unreachable!()
                         } else {
-                            lanes.cast_scalar(
-                                cuboid.half_extents,
-                                c.local_origin,
-                                c.inv_rotation,
-                                world,
-                                u,
-                                max_toi,
-                                active,
-                            );
-                        }
-                        for j in lanes_of(active) {
-                            let hit = lanes.found(j, cuboid, c.local_origin, max_toi);
-                            pixels[u + j].offer(k, hit);
+                            search.cuboid_scalar(c, half, k, world, u, n, max_toi, lanes)
+                        };
+                        for j in (0..n).filter(|j| ask & (1 << j) != 0) {
+                            let hit = lanes.ask_parry(j, cuboid, c.local_origin, max_toi);
+                            search.offer(u + j, k, hit);
                         }
                     }
                     None => {
                         let co = &colliders[c.handle];
-                        for j in lanes_of(active) {
+                        for j in 0..n {
+                            if !search.wants(u + j, c.near) {
+                                continue;
+                            }
                             let ray = Ray::new(origin, world.get(u + j));
                             let hit = co
                                 .shape()
                                 .cast_ray_and_get_normal(co.position(), &ray, max_toi, true)
                                 .map(Found::Shape);
-                            pixels[u + j].offer(k, hit);
+                            search.offer(u + j, k, hit);
                         }
                     }
                 }
@@ -470,6 +571,18 @@ impl FrustumCaster {
             let dist = (nearest - origin).norm();
             let pose = *co.position();
             let inv_rotation = pose.rotation.inverse();
+            let cuboid = co.shape().as_cuboid().copied();
+            let mut world_normals = [Vector::ZERO; 7];
+            if cuboid.is_some() {
+                for (side, n) in (-3i8..=3).zip(&mut world_normals) {
+                    let local = if side == 0 {
+                        CuboidHit::Inside { side: 1 }
+                    } else {
+                        CuboidHit::Enters { toi: 0.0, side }
+                    };
+                    *n = pose.rotation * local.intersection().normal;
+                }
+            }
             let mut cand = Candidate {
                 handle,
                 u0: 0,
@@ -477,11 +590,12 @@ impl FrustumCaster {
                 v0: 0,
                 v1: h - 1,
                 near: (dist - 1e-3) as f32,
-                cuboid: co.shape().as_cuboid().copied(),
+                cuboid,
                 pose,
                 inv_rotation,
                 // `Pose::inverse_transform_point`, as `Ray::inverse_transform_by` computes it.
                 local_origin: pose.inverse_transform_point(o),
+                world_normals,
             };
             if dist <= near_radius {
                 self.candidates.push(cand);
@@ -780,31 +894,76 @@ mod tests {
             }
             let inv = random_rotation(&mut rng);
             let max_toi = rng.random_range(0.5..8.0);
+            let mut cand = Candidate {
+                handle: ColliderHandle::invalid(),
+                u0: 0,
+                u1: 0,
+                v0: 0,
+                v1: 0,
+                near: rng.random_range(-0.5..4.0),
+                cuboid: Some(Cuboid::new(half)),
+                pose: Pose::IDENTITY,
+                inv_rotation: inv,
+                local_origin: origin,
+                world_normals: [Vector::ZERO; 7],
+            };
             for u in [0, LANES, LANES + 3] {
-                let (mut a, mut b) = (CuboidLanes::default(), CuboidLanes::default());
+                // A search part-way through: some pixels done, some with a hit already, some
+                // of those at exactly the time this cuboid gives (ties).
+                let mut probe = CuboidLanes::default();
+                probe.cast_scalar(half, origin, inv, &world, u, max_toi, u32::MAX);
+                let mut search = RowSearch::default();
+                search.reset(world.x.len());
+                for p in 0..world.x.len() {
+                    let toi = match p.checked_sub(u) {
+                        Some(j) if j < LANES && probe.code[j] == ENTERS && k % 3 == 0 => {
+                            probe.toi[j]
+                        }
+                        _ => rng.random_range(0.0..6.0),
+                    };
+                    match rng.random_range(0..4) {
+                        0 => search.done[p] = u32::MAX,
+                        1 | 2 => search.offer(
+                            p,
+                            7,
+                            Some(Found::Cuboid(CuboidHit::Enters { toi, side: -2 })),
+                        ),
+                        _ => {}
+                    }
+                }
+                // Now and then a candidate exactly at a pixel's threshold.
+                if k % 4 == 1 && search.toi[u].is_finite() {
+                    cand.near = search.toi[u] * (1.0 + 2.0 * TIE);
+                }
+                let n = rng.random_range(1..=LANES);
+                let (mut a, mut b) = (search.clone(), search);
+                let (mut la, mut lb) = (CuboidLanes::default(), CuboidLanes::default());
+                // Lanes the scalar twin casts get a code; the others keep this one.
+                lb.code = [-1.0; LANES];
                 // SAFETY: as above.
-                unsafe { avx::cuboid_lanes(half, origin, inv, &world, u, max_toi, &mut a) };
-                b.cast_scalar(
-                    half,
-                    origin,
-                    inv,
-                    &world,
-                    u,
-                    max_toi,
-                    u32::MAX >> (32 - LANES),
-                );
-                for j in 0..LANES {
-                    let what = format!("{half:?} {origin:?} {inv:?} {:?}", world.get(u + j));
+                let ask_a = unsafe {
+                    avx::cuboid_lanes(&cand, half, 3, &world, u, n, max_toi, &mut a, &mut la)
+                };
+                let ask_b = b.cuboid_scalar(&cand, half, 3, &world, u, n, max_toi, &mut lb);
+                let what = format!("{half:?} {origin:?} {inv:?} {u} {n}");
+                assert_eq!(ask_a, ask_b, "{what}");
+                for j in (0..n).filter(|j| ask_b & (1 << j) != 0) {
                     let bits = |l: &CuboidLanes| l.dir.map(|c| c[j].to_bits());
-                    assert_eq!(bits(&a), bits(&b), "{what}");
-                    assert_eq!(a.code[j], b.code[j], "{what}");
-                    if b.code[j] == INSIDE || b.code[j] == ENTERS {
-                        assert_eq!(a.side[j], b.side[j], "{what}");
+                    assert_eq!(bits(&la), bits(&lb), "{what}");
+                }
+                let bits = |c: &[f32]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a.toi), bits(&b.toi), "{what}");
+                assert_eq!(a.second, b.second, "{what}");
+                assert_eq!(a.done, b.done, "{what}");
+                assert_eq!(bits(&a.code), bits(&b.code), "{what}");
+                for p in 0..a.code.len() {
+                    if a.code[p] != MISS {
+                        assert_eq!(a.cand[p], b.cand[p], "{what}");
+                        assert_eq!(a.side[p], b.side[p], "{what}");
                     }
-                    if b.code[j] == ENTERS {
-                        assert_eq!(a.toi[j].to_bits(), b.toi[j].to_bits(), "{what}");
-                    }
-                    codes[b.code[j] as usize] += 1;
+                }
+                for j in (0..n).filter(|&j| lb.code[j] >= 0.0) {
+                    codes[lb.code[j] as usize] += 1;
                     total += 1;
                 }
             }

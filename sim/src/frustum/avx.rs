@@ -6,7 +6,7 @@
 //! and parry's slab test as `cast_cuboid` writes it — so every lane is the scalar result bit
 //! for bit (the tests compare them on random and degenerate rays).
 
-use super::{Columns, CuboidLanes, LANES};
+use super::{Candidate, Columns, CuboidLanes, RowSearch, LANES, TIE};
 use rapier3d::prelude::{Rotation, Vector};
 use std::arch::x86_64::*;
 
@@ -75,21 +75,55 @@ pub(super) unsafe fn rotate_row(q: Rotation, dirs: &[Vector], out: &mut Columns)
     }
 }
 
-/// `cast_cuboid` of the rays from `origin` (the cuboid's frame) along `inv_rotation` times
-/// the world directions of pixels `u..u + LANES`, into `out`.
+/// [`RowSearch::cuboid_scalar`] eight lanes at a time: candidate `k` (a cuboid of half
+/// extents `half`) offered to pixels `u..u + n` of `search`, whose wants, slab tests and
+/// offers are the scalar code's lane by lane. Returns the lanes parry must cast (their rays
+/// in `out.dir`).
 ///
 /// # Safety
 /// The processor has AVX, and the columns hold `u + LANES` values.
+#[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx")]
 pub(super) unsafe fn cuboid_lanes(
+    c: &Candidate,
     half: Vector,
-    origin: Vector,
-    inv_rotation: Rotation,
+    k: usize,
     world: &Columns,
     u: usize,
+    n: usize,
     max_toi: f32,
+    search: &mut RowSearch,
     out: &mut CuboidLanes,
-) {
+) -> u32 {
+    let ld = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
+    let ld_bits = |c: &Vec<u32>| unsafe {
+        _mm256_castsi256_ps(_mm256_loadu_si256(c[u..u + LANES].as_ptr().cast()))
+    };
+    let iota = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+    let in_range = _mm256_cmp_ps::<_CMP_LT_OQ>(iota, _mm256_set1_ps(n as f32));
+    // `RowSearch::wants`, lane by lane.
+    let best = ld(&search.toi);
+    let threshold = _mm256_mul_ps(best, _mm256_set1_ps(1.0 + 2.0 * TIE));
+    let done = ld_bits(&search.done);
+    let stop = _mm256_andnot_ps(
+        done,
+        _mm256_and_ps(
+            in_range,
+            _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_set1_ps(c.near), threshold),
+        ),
+    );
+    let done = _mm256_or_ps(done, stop);
+    unsafe {
+        _mm256_storeu_si256(
+            search.done[u..u + LANES].as_mut_ptr().cast(),
+            _mm256_castps_si256(done),
+        )
+    };
+    let active = _mm256_andnot_ps(done, in_range);
+    if _mm256_movemask_ps(active) == 0 {
+        return 0;
+    }
+    let (origin, inv_rotation) = (c.local_origin, c.inv_rotation);
     let load = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
     let d = rotate(
         inv_rotation,
@@ -183,4 +217,29 @@ pub(super) unsafe fn cuboid_lanes(
         _mm256_storeu_ps(out.toi.as_mut_ptr(), tmin);
         _mm256_storeu_ps(out.side.as_mut_ptr(), side);
     }
+    // `RowSearch::offer` of the lanes with a hit, lane by lane: a nearer hit replaces the
+    // nearest, which becomes a candidate for the nearest other; a farther one is one itself.
+    let hit = _mm256_and_ps(active, _mm256_or_ps(inside, enters));
+    let hit_toi = _mm256_blendv_ps(tmin, zero, inside);
+    let nearer = _mm256_and_ps(hit, _mm256_cmp_ps::<_CMP_LT_OQ>(hit_toi, best));
+    let second = ld(&search.second);
+    let other = _mm256_blendv_ps(hit_toi, best, nearer);
+    let second = _mm256_blendv_ps(second, _mm256_min_ps(second, other), hit);
+    let store =
+        |c: &mut Vec<f32>, x: __m256| unsafe { _mm256_storeu_ps(c[u..u + LANES].as_mut_ptr(), x) };
+    store(&mut search.second, second);
+    store(&mut search.toi, _mm256_blendv_ps(best, hit_toi, nearer));
+    let was = ld(&search.code);
+    store(&mut search.code, _mm256_blendv_ps(was, code, nearer));
+    let was = ld(&search.side);
+    store(&mut search.side, _mm256_blendv_ps(was, side, nearer));
+    let was = ld_bits(&search.cand);
+    let cand = _mm256_castsi256_ps(_mm256_set1_epi32(k as i32));
+    unsafe {
+        _mm256_storeu_si256(
+            search.cand[u..u + LANES].as_mut_ptr().cast(),
+            _mm256_castps_si256(_mm256_blendv_ps(was, cand, nearer)),
+        )
+    };
+    _mm256_movemask_ps(_mm256_and_ps(active, ask)) as u32
 }
