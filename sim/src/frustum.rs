@@ -181,6 +181,19 @@ impl CuboidLanes {
     }
 }
 
+/// One candidate cuboid (`k`, of half extents `half`) and the pixels `u..u + n` of a row
+/// (world directions in `world`) it is cast on together.
+#[derive(Clone, Copy)]
+struct CuboidGroup<'a> {
+    c: &'a Candidate,
+    half: Vector,
+    k: usize,
+    world: &'a Columns,
+    u: usize,
+    n: usize,
+    max_toi: f32,
+}
+
 /// [`RowSearch::code`] of a nearest hit kept in [`RowSearch::shape`].
 const SHAPE: f32 = 4.0;
 
@@ -286,21 +299,18 @@ impl RowSearch {
         Some((self.cand[u] as usize, found))
     }
 
-    /// The scalar twin of `avx::cuboid_lanes`: candidate `k` (a cuboid of half extents
-    /// `half`) offered to pixels `u..u + n`. Returns the lanes parry must cast (their rays
-    /// in `lanes.dir`).
-    #[allow(clippy::too_many_arguments)]
-    fn cuboid_scalar(
-        &mut self,
-        c: &Candidate,
-        half: Vector,
-        k: usize,
-        world: &Columns,
-        u: usize,
-        n: usize,
-        max_toi: f32,
-        lanes: &mut CuboidLanes,
-    ) -> u32 {
+    /// The scalar twin of `avx::cuboid_lanes`: the group's cuboid offered to its pixels.
+    /// Returns the lanes parry must cast (their rays in `lanes.dir`).
+    fn cuboid_scalar(&mut self, g: &CuboidGroup, lanes: &mut CuboidLanes) -> u32 {
+        let CuboidGroup {
+            c,
+            half,
+            k,
+            world,
+            u,
+            n,
+            max_toi,
+        } = *g;
         let mut active = 0u32;
         for j in 0..n {
             if self.wants(u + j, c.near) {
@@ -499,17 +509,25 @@ impl FrustumCaster {
                 let n = (c.u1 + 1 - u).min(LANES);
                 match &c.cuboid {
                     Some(cuboid) => {
-                        let half = cuboid.half_extents;
+                        let group = CuboidGroup {
+                            c,
+                            half: cuboid.half_extents,
+                            k,
+                            world,
+                            u,
+                            n,
+                            max_toi,
+                        };
                         let ask = if simd {
                             // SAFETY: as above; the columns hold `u + LANES` values.
                             #[cfg(target_arch = "x86_64")]
                             unsafe {
-                                avx::cuboid_lanes(c, half, k, world, u, n, max_toi, search, lanes)
+                                avx::cuboid_lanes(&group, search, lanes)
                             }
                             #[cfg(not(target_arch = "x86_64"))]
                             unreachable!()
                         } else {
-                            search.cuboid_scalar(c, half, k, world, u, n, max_toi, lanes)
+                            search.cuboid_scalar(&group, lanes)
                         };
                         for j in (0..n).filter(|j| ask & (1 << j) != 0) {
                             let hit = lanes.ask_parry(j, cuboid, c.local_origin, max_toi);
@@ -941,10 +959,17 @@ mod tests {
                 // Lanes the scalar twin casts get a code; the others keep this one.
                 lb.code = [-1.0; LANES];
                 // SAFETY: as above.
-                let ask_a = unsafe {
-                    avx::cuboid_lanes(&cand, half, 3, &world, u, n, max_toi, &mut a, &mut la)
+                let group = CuboidGroup {
+                    c: &cand,
+                    half,
+                    k: 3,
+                    world: &world,
+                    u,
+                    n,
+                    max_toi,
                 };
-                let ask_b = b.cuboid_scalar(&cand, half, 3, &world, u, n, max_toi, &mut lb);
+                let ask_a = unsafe { avx::cuboid_lanes(&group, &mut a, &mut la) };
+                let ask_b = b.cuboid_scalar(&group, &mut lb);
                 let what = format!("{half:?} {origin:?} {inv:?} {u} {n}");
                 assert_eq!(ask_a, ask_b, "{what}");
                 for j in (0..n).filter(|j| ask_b & (1 << j) != 0) {

@@ -6,7 +6,7 @@
 //! and parry's slab test as `cast_cuboid` writes it — so every lane is the scalar result bit
 //! for bit (the tests compare them on random and degenerate rays).
 
-use super::{Candidate, Columns, CuboidLanes, RowSearch, LANES, TIE};
+use super::{Columns, CuboidGroup, CuboidLanes, RowSearch, LANES, TIE};
 use rapier3d::prelude::{Rotation, Vector};
 use std::arch::x86_64::*;
 
@@ -75,26 +75,27 @@ pub(super) unsafe fn rotate_row(q: Rotation, dirs: &[Vector], out: &mut Columns)
     }
 }
 
-/// [`RowSearch::cuboid_scalar`] eight lanes at a time: candidate `k` (a cuboid of half
-/// extents `half`) offered to pixels `u..u + n` of `search`, whose wants, slab tests and
-/// offers are the scalar code's lane by lane. Returns the lanes parry must cast (their rays
-/// in `out.dir`).
+/// [`RowSearch::cuboid_scalar`] eight lanes at a time: the group's cuboid offered to its
+/// pixels in `search`, whose wants, slab tests and offers are the scalar code's lane by lane.
+/// Returns the lanes parry must cast (their rays in `out.dir`).
 ///
 /// # Safety
 /// The processor has AVX, and the columns hold `u + LANES` values.
-#[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx")]
 pub(super) unsafe fn cuboid_lanes(
-    c: &Candidate,
-    half: Vector,
-    k: usize,
-    world: &Columns,
-    u: usize,
-    n: usize,
-    max_toi: f32,
+    g: &CuboidGroup,
     search: &mut RowSearch,
     out: &mut CuboidLanes,
 ) -> u32 {
+    let CuboidGroup {
+        c,
+        half,
+        k,
+        world,
+        u,
+        n,
+        max_toi,
+    } = *g;
     let ld = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
     let ld_bits = |c: &Vec<u32>| unsafe {
         _mm256_castsi256_ps(_mm256_loadu_si256(c[u..u + LANES].as_ptr().cast()))
