@@ -138,6 +138,7 @@ pub struct PlaneFilter {
     inlier: Vec<bool>,
     /// Shared by this filter and its clones.
     last: Arc<Mutex<LastFrame>>,
+    rays: PixelRays,
 }
 
 /// What one frame gave: P, R and O of Algorithm 1, and the neighbourhoods sampled.
@@ -221,8 +222,9 @@ impl LastFrame {
     }
 }
 
-/// Camera-frame point of pixel (u, v) at depth d (pinhole; see `robots::DepthImage`).
-#[inline]
+/// Camera-frame point of pixel (u, v) at depth d (pinhole; see `robots::DepthImage`): what
+/// [`PixelRays::point`] computes with its factors.
+#[cfg(test)]
 fn reconstruct(img: &DepthImage, u: usize, v: usize) -> Option<[f64; 3]> {
     let d = img.depth[v * img.width + u] as f64;
     if d > 0.0 {
@@ -233,6 +235,45 @@ fn reconstruct(img: &DepthImage, u: usize, v: usize) -> Option<[f64; 3]> {
         ])
     } else {
         None
+    }
+}
+
+/// The factors of a pixel's camera-frame point, −(u − cx)/fx per column and −(v − cy)/fy per
+/// row, divided once per image size and intrinsics instead of twice per sample. The point is
+/// the factor times the depth, the very operations of the per-sample formula, so it is that
+/// formula's bit for bit.
+#[derive(Debug, Clone, Default)]
+struct PixelRays {
+    /// Width, height, and the bits of cx, cy, fx, fy the factors were divided for.
+    key: Option<(usize, usize, [u64; 4])>,
+    cols: Vec<f64>,
+    rows: Vec<f64>,
+}
+
+impl PixelRays {
+    fn update(&mut self, img: &DepthImage) {
+        let key = (
+            img.width,
+            img.height,
+            [img.cx, img.cy, img.fx, img.fy].map(f64::to_bits),
+        );
+        if self.key == Some(key) {
+            return;
+        }
+        self.cols.clear();
+        self.cols
+            .extend((0..img.width).map(|u| -(u as f64 - img.cx) / img.fx));
+        self.rows.clear();
+        self.rows
+            .extend((0..img.height).map(|v| -(v as f64 - img.cy) / img.fy));
+        self.key = Some(key);
+    }
+
+    /// Pixel (u, v)'s point, or None without a depth; after [`PixelRays::update`] for `img`.
+    #[inline]
+    fn point(&self, img: &DepthImage, u: usize, v: usize) -> Option<[f64; 3]> {
+        let d = img.depth[v * img.width + u] as f64;
+        (d > 0.0).then(|| [d, self.cols[u] * d, self.rows[v] * d])
     }
 }
 
@@ -252,6 +293,7 @@ impl PlaneFilter {
             local: Vec::with_capacity(params.l),
             inlier: Vec::with_capacity(params.l),
             last: Arc::default(),
+            rays: PixelRays::default(),
             params,
         })
     }
@@ -331,6 +373,7 @@ impl PlaneFilter {
     fn sample_planes(&mut self, img: &DepthImage) {
         let p = self.params;
         self.out.clear();
+        self.rays.update(img);
         let (w, h) = (img.width as i64, img.height as i64);
         let eta = p.eta as i64;
         let need = p.alpha_in * p.l as f64;
@@ -350,9 +393,9 @@ impl PlaneFilter {
             }
             // Line 12 (pixels without depth cannot seed a plane).
             let (Some(p0), Some(p1), Some(p2)) = (
-                reconstruct(img, u0 as usize, v0 as usize),
-                reconstruct(img, u1 as usize, v1 as usize),
-                reconstruct(img, u2 as usize, v2 as usize),
+                self.rays.point(img, u0 as usize, v0 as usize),
+                self.rays.point(img, u1 as usize, v1 as usize),
+                self.rays.point(img, u2 as usize, v2 as usize),
             ) else {
                 continue;
             };
@@ -379,7 +422,7 @@ impl PlaneFilter {
             for _ in 0..p.l {
                 let u = self.rng.random_range(ulo..=uhi) as usize;
                 let v = self.rng.random_range(vlo..=vhi) as usize;
-                if let Some(q) = reconstruct(img, u, v) {
+                if let Some(q) = self.rays.point(img, u, v) {
                     let ok = r.dot(&sub(q, p0)).abs() < p.epsilon;
                     inliers += ok as usize;
                     self.local.push(q);
@@ -612,6 +655,51 @@ mod tests {
             owned(&b.filter(&frames[1]).unwrap()),
             owned(&reference.filter(&frames[1]).unwrap())
         );
+    }
+
+    /// The per-image factors give every pixel's point bit for bit, for images whose size and
+    /// intrinsics change between frames (the factors must follow them).
+    #[test]
+    fn pixel_rays_are_the_per_sample_formula_bit_for_bit() {
+        let mut rays = PixelRays::default();
+        for (k, (w, h, cx, fx)) in [
+            (160, 120, 79.5, 131.25),
+            (64, 48, 31.7, 57.1),
+            (160, 120, 80.0, 131.25),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let img = DepthImage {
+                width: w,
+                height: h,
+                cx,
+                cy: 0.4 * h as f64,
+                fx,
+                fy: fx * 1.01,
+                depth: (0..w * h)
+                    .map(|i| {
+                        if i % 7 == 0 {
+                            0.0
+                        } else {
+                            0.5 + (i * 37 % 401) as f32 * 0.01
+                        }
+                    })
+                    .collect(),
+                ..synthetic(&scene(), k as u64)
+            };
+            rays.update(&img);
+            for v in 0..h {
+                for u in 0..w {
+                    let bits = |p: Option<[f64; 3]>| p.map(|p| p.map(f64::to_bits));
+                    assert_eq!(
+                        bits(rays.point(&img, u, v)),
+                        bits(reconstruct(&img, u, v)),
+                        "image {k}, pixel ({u}, {v})"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
