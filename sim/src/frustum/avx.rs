@@ -6,7 +6,7 @@
 //! and parry's slab test as `cast_cuboid` writes it — so every lane is the scalar result bit
 //! for bit (the tests compare them on random and degenerate rays).
 
-use super::{Columns, CuboidGroup, CuboidLanes, RowSearch, LANES, TIE};
+use super::search::{self, Columns, CuboidGroup, CuboidLanes, RowSearch, LANES, TIE};
 use rapier3d::prelude::{Rotation, Vector};
 use std::arch::x86_64::*;
 
@@ -88,7 +88,9 @@ pub(super) unsafe fn cuboid_lanes(
     out: &mut CuboidLanes,
 ) -> u32 {
     let CuboidGroup {
-        c,
+        near,
+        origin,
+        inv_rotation,
         half,
         k,
         world,
@@ -110,7 +112,7 @@ pub(super) unsafe fn cuboid_lanes(
         done,
         _mm256_and_ps(
             in_range,
-            _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_set1_ps(c.near), threshold),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_set1_ps(near), threshold),
         ),
     );
     let done = _mm256_or_ps(done, stop);
@@ -124,7 +126,6 @@ pub(super) unsafe fn cuboid_lanes(
     if _mm256_movemask_ps(active) == 0 {
         return 0;
     }
-    let (origin, inv_rotation) = (c.local_origin, c.inv_rotation);
     let load = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
     let d = rotate(
         inv_rotation,
@@ -206,10 +207,10 @@ pub(super) unsafe fn cuboid_lanes(
     );
     // Codes as in `CuboidLanes`: MISS 0, INSIDE 1, ENTERS 2, ASK 3.
     let code = _mm256_or_ps(
-        _mm256_and_ps(ask, _mm256_set1_ps(super::ASK)),
+        _mm256_and_ps(ask, _mm256_set1_ps(search::ASK)),
         _mm256_or_ps(
-            _mm256_and_ps(inside, _mm256_set1_ps(super::INSIDE)),
-            _mm256_and_ps(enters, _mm256_set1_ps(super::ENTERS)),
+            _mm256_and_ps(inside, _mm256_set1_ps(search::INSIDE)),
+            _mm256_and_ps(enters, _mm256_set1_ps(search::ENTERS)),
         ),
     );
     let side = _mm256_blendv_ps(near_side, far_side, inside);
@@ -243,4 +244,184 @@ pub(super) unsafe fn cuboid_lanes(
         )
     };
     _mm256_movemask_ps(_mm256_and_ps(active, ask)) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::search::CuboidHit;
+    use super::search::{Found, ENTERS, MISS};
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn columns(dirs: &[Vector]) -> Columns {
+        let mut c = Columns::default();
+        c.resize(dirs.len() + LANES);
+        for (u, d) in dirs.iter().enumerate() {
+            (c.x[u], c.y[u], c.z[u]) = (d.x, d.y, d.z);
+        }
+        c
+    }
+
+    fn random_rotation(rng: &mut ChaCha8Rng) -> Rotation {
+        (Rotation::from_rotation_z(rng.random_range(-3.2..3.2))
+            * Rotation::from_rotation_y(rng.random_range(-1.6..1.6))
+            * Rotation::from_rotation_x(rng.random_range(-3.2..3.2)))
+        .normalize()
+    }
+
+    /// Rays from random, axis-aligned and zero directions (every branch of the slab test:
+    /// misses, hits from inside and outside, ties at edges and corners, parry's cases).
+    fn random_dirs(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vector> {
+        (0..n)
+            .map(|k| {
+                let mut d = Vector::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                match k % 11 {
+                    0 => d.x = 0.0,
+                    1 => d = Vector::new(1.0, 1.0, 1.0),
+                    2 => d = Vector::new(-0.0, 0.0, 1.0),
+                    3 => d.z = 1e-40,
+                    4 => d.y = f32::NAN,
+                    _ => {}
+                }
+                d
+            })
+            .collect()
+    }
+
+    #[test]
+    fn avx_kernels_are_the_scalar_code_bit_for_bit() {
+        if !available() {
+            return;
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (mut codes, mut total) = ([0usize; 4], 0);
+        for k in 0..3000 {
+            let q = if k % 5 == 0 {
+                Rotation::IDENTITY
+            } else {
+                random_rotation(&mut rng)
+            };
+            let dirs = random_dirs(&mut rng, 2 * LANES + 3);
+            let mut simd = Columns::default();
+            simd.resize(dirs.len().div_ceil(LANES) * LANES + LANES);
+            // SAFETY: checked above; the columns hold a group past the row.
+            unsafe { rotate_row(q, &dirs, &mut simd) };
+            for (u, d) in dirs.iter().enumerate() {
+                let want = (q * *d).to_array().map(f32::to_bits);
+                assert_eq!(
+                    simd.get(u).to_array().map(f32::to_bits),
+                    want,
+                    "{q:?} {d:?}"
+                );
+            }
+            let world = columns(&dirs);
+            let half = Vector::new(
+                rng.random_range(0.01..3.0),
+                rng.random_range(0.01..3.0),
+                rng.random_range(0.01..3.0),
+            );
+            // Half the origins on a face, edge or corner's extension (tied slabs).
+            let mut origin = Vector::new(
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-4.0..4.0),
+            );
+            if k % 2 == 0 {
+                origin.x = half.x;
+            }
+            let inv = random_rotation(&mut rng);
+            let max_toi = rng.random_range(0.5..8.0);
+            let mut near = rng.random_range(-0.5..4.0);
+            for u in [0, LANES, LANES + 3] {
+                // A search part-way through: some pixels done, some with a hit already, some
+                // of those at exactly the time this cuboid gives (ties).
+                let mut probe = CuboidLanes::default();
+                let all = CuboidGroup {
+                    near: f32::NEG_INFINITY,
+                    origin,
+                    inv_rotation: inv,
+                    half,
+                    k: 0,
+                    world: &world,
+                    u,
+                    n: LANES,
+                    max_toi,
+                };
+                probe.cast_scalar(&all, u32::MAX);
+                let mut search = RowSearch::default();
+                search.reset(world.x.len());
+                for p in 0..world.x.len() {
+                    let toi = match p.checked_sub(u) {
+                        Some(j) if j < LANES && probe.code[j] == ENTERS && k % 3 == 0 => {
+                            probe.toi[j]
+                        }
+                        _ => rng.random_range(0.0..6.0),
+                    };
+                    match rng.random_range(0..4) {
+                        0 => search.done[p] = u32::MAX,
+                        1 | 2 => search.offer(
+                            p,
+                            7,
+                            Some(Found::Cuboid(CuboidHit::Enters { toi, side: -2 })),
+                        ),
+                        _ => {}
+                    }
+                }
+                // Now and then a candidate exactly at a pixel's threshold.
+                if k % 4 == 1 && search.toi[u].is_finite() {
+                    near = search.toi[u] * (1.0 + 2.0 * TIE);
+                }
+                let n = rng.random_range(1..=LANES);
+                let (mut a, mut b) = (search.clone(), search);
+                let (mut la, mut lb) = (CuboidLanes::default(), CuboidLanes::default());
+                // Lanes the scalar twin casts get a code; the others keep this one.
+                lb.code = [-1.0; LANES];
+                // SAFETY: as above.
+                let group = CuboidGroup {
+                    near,
+                    origin,
+                    inv_rotation: inv,
+                    half,
+                    k: 3,
+                    world: &world,
+                    u,
+                    n,
+                    max_toi,
+                };
+                let ask_a = unsafe { cuboid_lanes(&group, &mut a, &mut la) };
+                let ask_b = b.cuboid_scalar(&group, &mut lb);
+                let what = format!("{half:?} {origin:?} {inv:?} {u} {n}");
+                assert_eq!(ask_a, ask_b, "{what}");
+                for j in (0..n).filter(|j| ask_b & (1 << j) != 0) {
+                    let bits = |l: &CuboidLanes| l.dir.map(|c| c[j].to_bits());
+                    assert_eq!(bits(&la), bits(&lb), "{what}");
+                }
+                let bits = |c: &[f32]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a.toi), bits(&b.toi), "{what}");
+                assert_eq!(a.second, b.second, "{what}");
+                assert_eq!(a.done, b.done, "{what}");
+                assert_eq!(bits(&a.code), bits(&b.code), "{what}");
+                for p in 0..a.code.len() {
+                    if a.code[p] != MISS {
+                        assert_eq!(a.cand[p], b.cand[p], "{what}");
+                        assert_eq!(a.side[p], b.side[p], "{what}");
+                    }
+                }
+                for j in (0..n).filter(|&j| lb.code[j] >= 0.0) {
+                    codes[lb.code[j] as usize] += 1;
+                    total += 1;
+                }
+            }
+        }
+        // Every answer occurs often enough to have been compared.
+        assert!(
+            codes.iter().all(|&c| c * 50 > total),
+            "{codes:?} of {total}"
+        );
+    }
 }
