@@ -1,10 +1,11 @@
-//! The caster's two per-ray costs eight pixels at a time with AVX: turning a row's camera-
-//! frame directions into the world, and a cuboid's slab test (`cast_cuboid`) after turning the
-//! rays into the cuboid's frame. Each lane performs the scalar code's operations in its order
-//! and without fused multiply-adds — glam's `Quat * Vec3` (its SSE2 path: the vector part's
-//! dot products summed x, y then z, the cross product as `a.zxy * b − a * b.zxy` rotated back)
-//! and parry's slab test as `cast_cuboid` writes it — so every lane is the scalar result bit
-//! for bit (the tests compare them on random and degenerate rays).
+//! The caster's per-ray work eight pixels at a time with AVX: turning a row's camera-frame
+//! directions into the world, and for a cuboid, turning the rays into its frame, its slab test
+//! (`cast_cuboid`) and the pixels' search updates (`RowSearch::wants` and `offer`). Each lane
+//! performs the scalar code's operations in its order and without fused multiply-adds —
+//! glam's `Quat * Vec3` (its SSE2 path: the vector part's dot products summed x, y then z, the
+//! cross product as `a.zxy * b − a * b.zxy` rotated back) and parry's slab test as
+//! `cast_cuboid` writes it — so every lane is the scalar result bit for bit (the tests compare
+//! them on random and degenerate rays and on searches part-way through).
 
 use super::search::{self, Columns, CuboidGroup, CuboidLanes, RowSearch, LANES, TIE};
 use rapier3d::prelude::{Rotation, Vector};
@@ -126,11 +127,7 @@ pub(super) unsafe fn cuboid_lanes(
     if _mm256_movemask_ps(active) == 0 {
         return 0;
     }
-    let load = |c: &Vec<f32>| unsafe { _mm256_loadu_ps(c[u..u + LANES].as_ptr()) };
-    let d = rotate(
-        inv_rotation,
-        [load(&world.x), load(&world.y), load(&world.z)],
-    );
+    let d = rotate(inv_rotation, [ld(&world.x), ld(&world.y), ld(&world.z)]);
     for (col, d) in out.dir.iter_mut().zip(d) {
         unsafe { _mm256_storeu_ps(col.as_mut_ptr(), d) };
     }
