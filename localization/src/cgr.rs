@@ -388,20 +388,24 @@ impl Cgr {
         // lookups, divisions and library calls, where one pass per point waited for each in
         // turn (the work and its order per value are unchanged, so the results are too, bit
         // for bit).
-        for (i, q) in self.obs.iter().enumerate() {
-            let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
-            let constraint = if with_normals {
-                let n = self.obs_normals[i];
-                Some(([c * n[0] - s * n[1], s * n[0] + c * n[1]], min_cos))
-            } else {
-                None
-            };
-            match self.map.correspondence(p, constraint) {
-                Some(corr) => {
-                    factors.push(0.0);
-                    matched.push(Matched { point: i, corr });
-                }
-                None => factors.push(NO_CORRESPONDENCE),
+        // Every point starts without a segment; the matched ones get their factor below.
+        factors.resize(self.obs.len(), NO_CORRESPONDENCE);
+        let mut offer = |i: usize, corr: Option<Correspondence>| {
+            if let Some(corr) = corr {
+                matched.push(Matched { point: i, corr });
+            }
+        };
+        // One loop per source, so the laser's has no normal to test.
+        if with_normals {
+            for (i, (q, n)) in self.obs.iter().zip(&self.obs_normals).enumerate() {
+                let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
+                let n = [c * n[0] - s * n[1], s * n[0] + c * n[1]];
+                offer(i, self.map.correspondence(p, Some((n, min_cos))));
+            }
+        } else {
+            for (i, q) in self.obs.iter().enumerate() {
+                let p = [px + c * q[0] - s * q[1], py + s * q[0] + c * q[1]];
+                offer(i, self.map.correspondence(p, None));
             }
         }
         for m in matched.iter() {

@@ -44,8 +44,9 @@ pub const FSPF_MAX_LOCAL_SAMPLES: usize = 1_000;
 /// 0.02 m is 6.6 million cells.
 pub const MCL_MAX_GRID_CELLS: u64 = 50_000_000;
 
-/// Cells of CGR's correspondence grid: 16 bytes a cell kept and 32 more while it is built,
-/// under 1 GB at the limit; the campus at the default 0.1 m is 250,000 cells.
+/// Cells of CGR's correspondence grid: 36 bytes a cell kept (64 more for a cell near two
+/// segments or more) and 48 more while it is built, about 1.7 GB at the limit before those
+/// records; the campus at the default 0.1 m is 250,000 cells.
 pub const LINE_MAP_MAX_CELLS: u64 = 20_000_000;
 
 /// Values of a WiFi graph, nodes × access points (a mean and a variance each, 160 MB at the

@@ -55,6 +55,20 @@ impl Line {
     }
 }
 
+/// One grid cell: what a correspondence needs first, in one cache line, so that the common
+/// case (one candidate left in the point's sub-cell) costs one load before the segment's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(32))]
+struct Cell {
+    /// `CANDIDATES` segment indices, nearest first, `NONE`-padded.
+    ids: [u32; CANDIDATES],
+    /// Nibble s per sub-cell s (row-major): bit 3 set when exactly one candidate is left
+    /// there with every candidate eligible (as without a normal constraint), bits 0–1 its
+    /// index in `ids`. A copy of what `sub_cells` and `dominated` say, without their two dependent
+    /// loads and the branch between them.
+    single: u64,
+}
+
 /// The vector map with a candidate grid.
 #[derive(Debug, Clone)]
 pub struct LineMap {
@@ -63,8 +77,8 @@ pub struct LineMap {
     resolution: f64,
     width: usize,
     height: usize,
-    /// `CANDIDATES` segment indices per cell, nearest first, `NONE`-padded.
-    cells: Vec<[u32; CANDIDATES]>,
+    /// Per cell, its candidates and which of them is the one left in each sub-cell.
+    cells: Vec<Cell>,
     /// Per cell with two or more candidates, the offset of its `SUB`² records in
     /// `dominated`; otherwise `ONE_RECORD` | the candidates present (bit k = candidate k).
     sub_cells: Vec<u32>,
@@ -176,6 +190,14 @@ impl LineMap {
             }
         }
         let (sub_cells, dominated) = dominance(&lines, &cells, &dist, origin, resolution, width);
+        let cells = cells
+            .iter()
+            .zip(&sub_cells)
+            .map(|(&ids, &entry)| Cell {
+                ids,
+                single: single_candidates(entry, &dominated),
+            })
+            .collect();
         Ok(Self {
             lines,
             origin,
@@ -225,7 +247,7 @@ impl LineMap {
         let Some((cell, _)) = self.locate(p) else {
             return &[];
         };
-        let c = &self.cells[cell];
+        let c = &self.cells[cell].ids;
         let n = c.iter().position(|&x| x == NONE).unwrap_or(CANDIDATES);
         &c[..n]
     }
@@ -251,14 +273,34 @@ impl LineMap {
     /// carry a relative error below 4·10⁻¹⁶ and `hypot` one below 2.3·10⁻¹⁶, so a candidate
     /// whose square is larger by 10⁻¹² has the larger `hypot` too, strictly. Squares near
     /// underflow or overflow, where that bound fails, take every candidate's `hypot`.
-    #[inline]
+    // Always inlined: CGR calls it for every point, and a call returns the result through
+    // memory and keeps the caller's constraint test.
+    #[inline(always)]
     pub fn correspondence(
         &self,
         p: [f64; 2],
         normal: Option<([f64; 2], f64)>,
     ) -> Option<Correspondence> {
         let (cell, sub) = self.locate(p)?;
-        let ids = &self.cells[cell];
+        let Cell { ids, single } = &self.cells[cell];
+        // The common case: one candidate left in the sub-cell when all are eligible. The
+        // others are each farther everywhere in the sub-cell than one that is nearer still,
+        // so it is nearer than all of them: the answer whenever it is eligible, as the
+        // general search below would find. Ineligible and alone in its cell, there is none.
+        let pick = (single >> (4 * sub)) & 0xf;
+        if pick & 8 != 0 {
+            let id = ids[(pick & 3) as usize];
+            let eligible = normal.is_none_or(|(n, min_cos)| {
+                let l = &self.lines[id as usize];
+                (n[0] * l.normal[0] + n[1] * l.normal[1]).abs() >= min_cos
+            });
+            if eligible {
+                return self.within_reach(id, p);
+            }
+            if ids[1] == NONE {
+                return None;
+            }
+        }
         let entry = self.sub_cells[cell];
         let record = if entry & ONE_RECORD != 0 {
             (entry & 0xf) << 16
@@ -289,14 +331,7 @@ impl LineMap {
             return None;
         }
         if left.is_power_of_two() {
-            let id = ids[left.trailing_zeros() as usize];
-            let r = self.lines[id as usize].residual(p);
-            let d = r[0].hypot(r[1]);
-            return (d <= self.reach).then_some(Correspondence {
-                line: id as usize,
-                distance: d,
-                residual: r,
-            });
+            return self.within_reach(ids[left.trailing_zeros() as usize], p);
         }
         let mut squares = [f64::INFINITY; CANDIDATES];
         let mut residuals = [[0.0; 2]; CANDIDATES];
@@ -321,7 +356,7 @@ impl LineMap {
                 continue;
             }
             let r = residuals[k];
-            let d = r[0].hypot(r[1]);
+            let d = residual_length(r);
             if d <= self.reach && best.is_none_or(|b| d < b.distance) {
                 best = Some(Correspondence {
                     line: id as usize,
@@ -332,6 +367,51 @@ impl LineMap {
         }
         best
     }
+}
+
+impl LineMap {
+    /// Segment `id` as `p`'s correspondence, if within reach.
+    #[inline(always)]
+    fn within_reach(&self, id: u32, p: [f64; 2]) -> Option<Correspondence> {
+        let r = self.lines[id as usize].residual(p);
+        let d = residual_length(r);
+        (d <= self.reach).then_some(Correspondence {
+            line: id as usize,
+            distance: d,
+            residual: r,
+        })
+    }
+}
+
+/// `r[0].hypot(r[1])`, without the library call when a component is zero: the residual
+/// from an axis-aligned segment's interior, where the subtractions are exact (coordinates
+/// within a factor of two of each other), as in most indoor maps. C's Annex F (IEC 60559)
+/// makes `hypot(x, ±0)` equivalent to `fabs(x)`, so this is `hypot` bit for bit.
+#[inline(always)]
+fn residual_length(r: [f64; 2]) -> f64 {
+    if r[0] == 0.0 {
+        r[1].abs()
+    } else if r[1] == 0.0 {
+        r[0].abs()
+    } else {
+        r[0].hypot(r[1])
+    }
+}
+
+/// A cell's `Cell::single` from its `LineMap::sub_cells` entry and the dominance records.
+fn single_candidates(entry: u32, dominated: &[u32]) -> u64 {
+    let left_in = |s: usize| {
+        if entry & ONE_RECORD != 0 {
+            entry & 0xf
+        } else {
+            dominated[entry as usize + s] >> 16
+        }
+    };
+    (0..SUB * SUB)
+        .filter(|&s| left_in(s).is_power_of_two())
+        .fold(0, |acc, s| {
+            acc | (8 | u64::from(left_in(s).trailing_zeros())) << (4 * s)
+        })
 }
 
 /// The dominance records of every cell (see `LineMap::dominated`): candidate k is dominated
@@ -489,6 +569,32 @@ mod tests {
         assert!((lm.lines()[0].line_offset([1.0, 0.25]) - 0.25).abs() < 1e-12);
         assert!(LineMap::new(&VectorMap::default(), 0.1, 0.5).is_err());
         assert!(LineMap::new(&map, 0.0, 0.5).is_err());
+    }
+
+    #[test]
+    fn residual_length_is_hypot_bit_for_bit() {
+        let values = [
+            0.0,
+            -0.0,
+            5e-324,
+            1e-310,
+            3.7e-9,
+            0.1,
+            -2.25,
+            1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for a in values {
+            for b in values {
+                let (got, want) = (residual_length([a, b]), a.hypot(b));
+                assert!(
+                    got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                    "({a}, {b}): {got} against {want}"
+                );
+            }
+        }
     }
 
     /// The search as it was before `correspondence` ranked by squares: `hypot` of every
