@@ -64,8 +64,8 @@ struct Cell {
     ids: [u32; CANDIDATES],
     /// Nibble s per sub-cell s (row-major): bit 3 set when exactly one candidate is left
     /// there with every candidate eligible (as without a normal constraint), bits 0–1 its
-    /// index in `ids`. A copy of what `sub_cells` and `dominated` say, without their two dependent
-    /// loads and the branch between them.
+    /// index in `ids`. What `sub_cells` and `dominated` say of that case, without their two
+    /// dependent loads and the branch between them.
     single: u64,
 }
 
@@ -283,10 +283,11 @@ impl LineMap {
     ) -> Option<Correspondence> {
         let (cell, sub) = self.locate(p)?;
         let Cell { ids, single } = &self.cells[cell];
-        // The common case: one candidate left in the sub-cell when all are eligible. The
-        // others are each farther everywhere in the sub-cell than one that is nearer still,
-        // so it is nearer than all of them: the answer whenever it is eligible, as the
-        // general search below would find. Ineligible and alone in its cell, there is none.
+        // The common case: one candidate left in the sub-cell when all are eligible. Every
+        // other candidate is dominated there by a chain of candidates, each nearer everywhere
+        // in the sub-cell, that ends at this one; so this one is nearer than all of them, and
+        // the answer whenever it is eligible, as the general search below would find.
+        // Ineligible and alone in its cell, there is none.
         let pick = (single >> (4 * sub)) & 0xf;
         if pick & 8 != 0 {
             let id = ids[(pick & 3) as usize];
@@ -367,9 +368,7 @@ impl LineMap {
         }
         best
     }
-}
 
-impl LineMap {
     /// Segment `id` as `p`'s correspondence, if within reach.
     #[inline(always)]
     fn within_reach(&self, id: u32, p: [f64; 2]) -> Option<Correspondence> {
