@@ -18,7 +18,7 @@ use crate::limits::{
 };
 use atrium_robots::DepthImage;
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, Vector3};
-use rand::{Rng, SeedableRng};
+use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, Mutex};
@@ -277,6 +277,29 @@ impl PixelRays {
     }
 }
 
+/// `rng.random_range(low..=high)` for `i64` (`low ≤ high`), bit for bit: rand 0.9's
+/// single-sample method (Canon's, `UniformInt::sample_single_inclusive` without the
+/// `unbiased` feature) written out. Through rand's generic entry the draws were not inlined:
+/// each of the six to two hundred per neighbourhood paid a call, a `Result` and an emptiness
+/// assertion. `fspf::tests::draws_are_rands_bit_for_bit` compares the two streams, so a
+/// change in rand's method fails a test instead of changing FSPF's samples.
+#[inline(always)]
+fn draw(rng: &mut ChaCha8Rng, low: i64, high: i64) -> i64 {
+    debug_assert!(low <= high);
+    let range = high.wrapping_sub(low).wrapping_add(1) as u64;
+    if range == 0 {
+        // The whole of i64.
+        return rng.next_u64() as i64;
+    }
+    let wide = u128::from(rng.next_u64()) * u128::from(range);
+    let (mut result, lo_order) = ((wide >> 64) as u64, wide as u64);
+    if lo_order > range.wrapping_neg() {
+        let new_hi_order = ((u128::from(rng.next_u64()) * u128::from(range)) >> 64) as u64;
+        result += u64::from(lo_order.checked_add(new_hi_order).is_none());
+    }
+    low.wrapping_add(result as i64)
+}
+
 #[inline]
 fn sub(a: [f64; 3], b: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2])
@@ -382,11 +405,11 @@ impl PlaneFilter {
         while n < p.n_max && k < p.k_max {
             k += 1;
             // Lines 9–11: d0 anywhere, d1 and d2 within η of it.
-            let (v0, u0) = (self.rng.random_range(0..h), self.rng.random_range(0..w));
-            let v1 = v0 + self.rng.random_range(-eta..=eta);
-            let u1 = u0 + self.rng.random_range(-eta..=eta);
-            let v2 = v0 + self.rng.random_range(-eta..=eta);
-            let u2 = u0 + self.rng.random_range(-eta..=eta);
+            let (v0, u0) = (draw(&mut self.rng, 0, h - 1), draw(&mut self.rng, 0, w - 1));
+            let v1 = v0 + draw(&mut self.rng, -eta, eta);
+            let u1 = u0 + draw(&mut self.rng, -eta, eta);
+            let v2 = v0 + draw(&mut self.rng, -eta, eta);
+            let u2 = u0 + draw(&mut self.rng, -eta, eta);
             let inside = |u: i64, v: i64| u >= 0 && v >= 0 && u < w && v < h;
             if !inside(u1, v1) || !inside(u2, v2) {
                 continue;
@@ -420,8 +443,8 @@ impl PlaneFilter {
             self.inlier.clear();
             let mut inliers = 0usize;
             for _ in 0..p.l {
-                let u = self.rng.random_range(ulo..=uhi) as usize;
-                let v = self.rng.random_range(vlo..=vhi) as usize;
+                let u = draw(&mut self.rng, ulo, uhi) as usize;
+                let v = draw(&mut self.rng, vlo, vhi) as usize;
                 if let Some(q) = self.rays.point(img, u, v) {
                     let ok = r.dot(&sub(q, p0)).abs() < p.epsilon;
                     inliers += ok as usize;
@@ -511,6 +534,37 @@ pub fn vertical_planes_on_floor(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::Rng;
+
+    #[test]
+    fn draws_are_rands_bit_for_bit() {
+        let ranges = [
+            (0, 0),
+            (0, 119),
+            (0, 159),
+            (-15, 15),
+            (3, 4),
+            (-7, -7),
+            (i64::MIN, i64::MAX),
+            (i64::MIN / 2, i64::MAX / 2),
+            (i64::MIN, 0),
+            (-(1 << 62), 3 << 61),
+        ];
+        for seed in 0..4 {
+            let mut ours = ChaCha8Rng::seed_from_u64(seed);
+            let mut rands = ours.clone();
+            for k in 0..20_000 {
+                let (low, high) = ranges[k % ranges.len()];
+                let want = if k % 3 == 0 && high < i64::MAX {
+                    rands.random_range(low..high + 1)
+                } else {
+                    rands.random_range(low..=high)
+                };
+                assert_eq!(draw(&mut ours, low, high), want, "seed {seed}, draw {k}");
+            }
+            assert_eq!(ours, rands, "seed {seed}: the streams fell out of step");
+        }
+    }
     use atrium_robots::{DepthCameraSpec, Mount3};
     use rand_distr::StandardNormal;
 
