@@ -127,12 +127,16 @@ pub struct PlaneFiltered<'a> {
     pub neighborhoods: usize,
 }
 
-/// FSPF with reusable buffers: after the first frame, filtering allocates nothing.
+/// FSPF with reusable buffers: after the first frame (or two, for a filter with clones),
+/// filtering allocates nothing.
 #[derive(Debug, Clone)]
 pub struct PlaneFilter {
     params: FspfParams,
     rng: ChaCha8Rng,
-    out: Output,
+    /// The last frame's result; held by the clones that took it too (see [`LastFrame`]).
+    out: Arc<Output>,
+    /// The result before it, whose buffers are written next once no clone holds them.
+    spare: Option<Arc<Output>>,
     /// Valid local samples of the current neighbourhood, and which are inliers.
     local: Vec<[f64; 3]>,
     inlier: Vec<bool>,
@@ -165,15 +169,6 @@ impl Output {
         self.outliers.clear();
         self.neighborhoods = 0;
     }
-
-    /// Becomes a copy of `other`, in its own buffers (no allocation once they have grown).
-    fn copy_from(&mut self, other: &Output) {
-        self.clear();
-        self.points.extend_from_slice(&other.points);
-        self.normals.extend_from_slice(&other.normals);
-        self.outliers.extend_from_slice(&other.outliers);
-        self.neighborhoods = other.neighborhoods;
-    }
 }
 
 /// The last frame a filter or one of its clones filtered, what went in and what came out.
@@ -183,8 +178,9 @@ impl Output {
 /// member is given the same images in the same order, so copies filter the same frame from
 /// the same state and get the same result: the first to filter a frame computes it, the
 /// others (holding equal inputs, compared bit for bit) take it and the stream's state after
-/// it. What each copy sees is exactly what it would have computed. A filter without clones
-/// keeps no record.
+/// it. What each copy sees is exactly what it would have computed. The result is shared, not
+/// copied: the record and the copies hold the computing filter's buffers, which it leaves
+/// for its spare ones before it writes again. A filter without clones keeps no record.
 #[derive(Debug, Default)]
 struct LastFrame {
     params: Option<FspfParams>,
@@ -193,7 +189,7 @@ struct LastFrame {
     /// The image's size and intrinsics (width, height, fx, fy, cx, cy), as bits.
     geometry: [u64; 6],
     depth_bits: Vec<u32>,
-    out: Output,
+    out: Option<Arc<Output>>,
 }
 
 fn geometry_bits(img: &DepthImage) -> [u64; 6] {
@@ -312,7 +308,8 @@ impl PlaneFilter {
             .map_err(|m| LocalizationError::InvalidParameter(format!("fspf: {m}")))?;
         Ok(Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
-            out: Output::with_capacity(params.n_max + params.l),
+            out: Arc::new(Output::with_capacity(params.n_max + params.l)),
+            spare: None,
             local: Vec::with_capacity(params.l),
             inlier: Vec::with_capacity(params.l),
             last: Arc::default(),
@@ -371,11 +368,15 @@ impl PlaneFilter {
         if !last.matches(&self.params, &self.rng, img) {
             return false;
         }
-        let Some(after) = &last.rng_after else {
+        let (Some(after), Some(out)) = (&last.rng_after, &last.out) else {
             return false;
         };
         self.rng = after.clone();
-        self.out.copy_from(&last.out);
+        let before = std::mem::replace(&mut self.out, out.clone());
+        // Buffers no one else holds are this filter's next to write.
+        if Arc::strong_count(&before) == 1 {
+            self.spare = Some(before);
+        }
         true
     }
 
@@ -389,13 +390,28 @@ impl PlaneFilter {
         last.depth_bits.clear();
         last.depth_bits
             .extend(img.depth.iter().map(|d| d.to_bits()));
-        last.out.copy_from(&self.out);
+        last.out = Some(self.out.clone());
+    }
+
+    /// Makes `out` buffers this filter alone holds, to write the next result into: its own
+    /// unless a clone or the shared record holds them, else the spare ones if no one does,
+    /// else new ones.
+    fn make_writable(&mut self) {
+        if Arc::get_mut(&mut self.out).is_none() {
+            let fresh = match self.spare.take() {
+                Some(spare) if Arc::strong_count(&spare) == 1 => spare,
+                _ => Arc::new(Output::with_capacity(self.params.n_max + self.params.l)),
+            };
+            self.spare = Some(std::mem::replace(&mut self.out, fresh));
+        }
     }
 
     /// Lines 1–24 of Algorithm 1 on a validated image, into the filter's buffers.
     fn sample_planes(&mut self, img: &DepthImage) {
         let p = self.params;
-        self.out.clear();
+        self.make_writable();
+        let out = Arc::get_mut(&mut self.out).expect("made writable above");
+        out.clear();
         self.rays.update(img);
         let (w, h) = (img.width as i64, img.height as i64);
         let eta = p.eta as i64;
@@ -456,16 +472,16 @@ impl PlaneFilter {
                 // Lines 18–21, with the normal from a least-squares fit on the inliers.
                 let normal = least_squares_normal(&self.local, &self.inlier, r);
                 for (q, _) in self.local.iter().zip(&self.inlier).filter(|(_, ok)| **ok) {
-                    self.out.points.push(*q);
-                    self.out.normals.push(normal);
+                    out.points.push(*q);
+                    out.normals.push(normal);
                 }
                 n += inliers;
             } else {
                 // Line 23.
-                self.out.outliers.extend_from_slice(&self.local);
+                out.outliers.extend_from_slice(&self.local);
             }
         }
-        self.out.neighborhoods = k;
+        out.neighborhoods = k;
     }
 }
 
