@@ -13,6 +13,8 @@ pub const CANDIDATES: usize = 4;
 const NONE: u32 = u32::MAX;
 /// Sub-cells per cell side for the dominance masks.
 const SUB: usize = 4;
+// `Cell::single` keeps a nibble per sub-cell in a u64.
+const _: () = assert!(SUB * SUB * 4 <= 64);
 /// Distance by which a dominated candidate is farther everywhere in its sub-cell, m: far
 /// above the float error of a point's cell and of its computed distances (about 1e-13 m).
 const DOMINANCE_MARGIN: f64 = 1e-9;
