@@ -155,7 +155,10 @@ struct Output {
 }
 
 impl Output {
-    fn with_capacity(points: usize) -> Output {
+    /// Empty buffers with room for a frame's points under `params` (at most n_max, plus the
+    /// last neighbourhood's l).
+    fn for_params(params: &FspfParams) -> Output {
+        let points = params.n_max + params.l;
         Output {
             points: Vec::with_capacity(points),
             normals: Vec::with_capacity(points),
@@ -308,7 +311,7 @@ impl PlaneFilter {
             .map_err(|m| LocalizationError::InvalidParameter(format!("fspf: {m}")))?;
         Ok(Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
-            out: Arc::new(Output::with_capacity(params.n_max + params.l)),
+            out: Arc::new(Output::for_params(&params)),
             spare: None,
             local: Vec::with_capacity(params.l),
             inlier: Vec::with_capacity(params.l),
@@ -400,7 +403,7 @@ impl PlaneFilter {
         if Arc::get_mut(&mut self.out).is_none() {
             let fresh = match self.spare.take() {
                 Some(spare) if Arc::strong_count(&spare) == 1 => spare,
-                _ => Arc::new(Output::with_capacity(self.params.n_max + self.params.l)),
+                _ => Arc::new(Output::for_params(&self.params)),
             };
             self.spare = Some(std::mem::replace(&mut self.out, fresh));
         }
