@@ -5,6 +5,7 @@
 
 use crate::error::LocalizationError;
 use crate::limits::check_positive;
+use crate::particles::HeadingTrig;
 use atrium_worlds::{Cell, OccupancyGrid};
 
 mod avx2;
@@ -53,6 +54,26 @@ impl Headings {
         Headings {
             sin: Vec::with_capacity(n),
             cos: Vec::with_capacity(n),
+        }
+    }
+
+    /// Forgets the headings, so that [`Headings::trig`] gives none until
+    /// [`Headings::poses`] computes them again.
+    pub fn clear(&mut self) {
+        self.sin.clear();
+        self.cos.clear();
+    }
+
+    /// The sines and cosines [`Headings::poses`] computed last, if it computed `n` of them
+    /// since the last [`Headings::clear`]; otherwise they are to be computed.
+    pub fn trig(&self, n: usize) -> HeadingTrig<'_> {
+        if self.sin.len() == n && n > 0 {
+            HeadingTrig::Given {
+                sin: &self.sin,
+                cos: &self.cos,
+            }
+        } else {
+            HeadingTrig::Compute
         }
     }
 
@@ -602,6 +623,24 @@ pub(crate) mod tests {
             height: h,
             cells,
         }
+    }
+
+    #[test]
+    fn headings_are_given_only_for_the_poses_computed_since_the_last_clear() {
+        let th = [0.3, -2.0, 3.1];
+        let mut h = Headings::default();
+        assert!(matches!(h.trig(0), HeadingTrig::Compute));
+        h.poses(&[0.0; 3], &[0.0; 3], &th);
+        let HeadingTrig::Given { sin, cos } = h.trig(3) else {
+            panic!("computed for 3 poses");
+        };
+        for (k, t) in th.iter().enumerate() {
+            assert_eq!((sin[k], cos[k]), t.sin_cos());
+        }
+        // Another count of particles, or a clear, and the estimate must compute its own.
+        assert!(matches!(h.trig(2), HeadingTrig::Compute));
+        h.clear();
+        assert!(matches!(h.trig(3), HeadingTrig::Compute));
     }
 
     #[test]

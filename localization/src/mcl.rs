@@ -702,6 +702,8 @@ impl Mcl {
         }
         let model = ScanModel::new(&self.field, &self.params, &self.beams, scan);
         let (scratch, mut nb) = (&mut self.beam_scratch, 0);
+        // Cleared so that the estimate below reuses only headings computed for these particles.
+        scratch.headings.clear();
         self.core.set.reweight_log_columns(|x, y, th, out| {
             nb = model.log_likelihoods(x, y, th, out, scratch);
         });
@@ -726,7 +728,10 @@ impl Mcl {
                 self.w_fast += self.params.alpha_fast * (w_avg - self.w_fast);
             }
         }
-        self.core.refresh_estimate(self.params.estimate);
+        // The particles have not moved since the sensor model took their headings' sines and
+        // cosines: the estimate reuses them.
+        let trig = self.beam_scratch.headings.trig(n);
+        self.core.refresh_estimate_with(self.params.estimate, trig);
         if self.params.resample_policy().due(self.core.set.ess(), n) {
             self.resample(scan);
         }

@@ -10,7 +10,7 @@ use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, Odomet
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::FitTracker;
 use crate::particle_set::ParticleSet;
-use crate::particles::CarriedEstimate;
+use crate::particles::{CarriedEstimate, HeadingTrig};
 use atrium_robots::{IntensityImage, Pose2, Reading};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -59,7 +59,13 @@ impl FilterCore {
 
     /// Carries forward the estimate `kind` of the particles as they are now.
     pub fn refresh_estimate(&mut self, kind: PointEstimate) {
-        self.carry.set(self.set.estimate(kind));
+        self.refresh_estimate_with(kind, HeadingTrig::Compute);
+    }
+
+    /// [`FilterCore::refresh_estimate`] with the headings' sines and cosines from `trig`
+    /// (see [`ParticleSet::estimate_with`]).
+    pub fn refresh_estimate_with(&mut self, kind: PointEstimate, trig: HeadingTrig<'_>) {
+        self.carry.set(self.set.estimate_with(kind, trig));
     }
 
     /// Redraws `n` particles around `pose` with standard deviations `sigma`, dropping the

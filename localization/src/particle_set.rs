@@ -14,7 +14,9 @@ use crate::error::LocalizationError;
 use crate::initial_belief::{gaussian_is_valid, gaussian_pose, InitialBelief, UniformInRegions};
 use crate::kld::{BinSet, KldSampling};
 use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{effective_sample_size, normalize_weights, weights_from_log_likelihoods};
+use crate::particles::{
+    effective_sample_size, normalize_weights, weights_from_log_likelihoods, HeadingTrig,
+};
 use crate::resampling::{low_variance_indices, Injection};
 use atrium_robots::Pose2;
 use nalgebra::Matrix3;
@@ -466,6 +468,16 @@ impl ParticleSet {
     /// The point estimate `kind` asks for (the weighted mean, or the heaviest cluster's) and
     /// its covariance.
     pub fn estimate(&mut self, kind: PointEstimate) -> (Pose2, Matrix3<f64>) {
+        self.estimate_with(kind, HeadingTrig::Compute)
+    }
+
+    /// [`ParticleSet::estimate`] with the headings' sines and cosines from `trig`, which
+    /// must hold those of the live particles.
+    pub fn estimate_with(
+        &mut self,
+        kind: PointEstimate,
+        trig: HeadingTrig<'_>,
+    ) -> (Pose2, Matrix3<f64>) {
         let n = self.n;
         let (mean, covariance, _) = point_estimate(
             kind,
@@ -473,6 +485,7 @@ impl ParticleSet {
             &self.y[..n],
             &self.th[..n],
             &self.w[..n],
+            trig,
             &mut self.cluster,
         );
         (mean, covariance)

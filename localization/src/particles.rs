@@ -16,7 +16,32 @@ pub fn weighted_mean_covariance(
     th: &[f64],
     w: &[f64],
 ) -> (Pose2, Matrix3<f64>) {
-    weighted_mean_covariance_of(x, y, th, w, |_| true)
+    weighted_mean_covariance_of(x, y, th, w, HeadingTrig::Compute, |_| true)
+}
+
+/// Where an estimate gets the sines and cosines of the particles' headings: computed from
+/// θ, or given by a sensor model that computed them with the same `sin_cos` for the same
+/// headings (so the estimate is the same bit for bit, without a second `sin_cos` per
+/// particle).
+#[derive(Debug, Clone, Copy, Default)]
+pub enum HeadingTrig<'a> {
+    #[default]
+    Compute,
+    Given {
+        sin: &'a [f64],
+        cos: &'a [f64],
+    },
+}
+
+impl HeadingTrig<'_> {
+    /// (sin θᵢ, cos θᵢ) of particle `i` of `th`.
+    #[inline]
+    fn sin_cos(&self, th: &[f64], i: usize) -> (f64, f64) {
+        match self {
+            HeadingTrig::Compute => th[i].sin_cos(),
+            HeadingTrig::Given { sin, cos } => (sin[i], cos[i]),
+        }
+    }
 }
 
 /// [`weighted_mean_covariance`] of the particles `keep` selects, their weights renormalised
@@ -26,6 +51,7 @@ pub fn weighted_mean_covariance_of(
     y: &[f64],
     th: &[f64],
     w: &[f64],
+    trig: HeadingTrig<'_>,
     keep: impl Fn(usize) -> bool,
 ) -> (Pose2, Matrix3<f64>) {
     let (mut sw, mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -36,7 +62,7 @@ pub fn weighted_mean_covariance_of(
         sw += wi;
         mx += wi * x[i];
         my += wi * y[i];
-        let (s, c) = th[i].sin_cos();
+        let (s, c) = trig.sin_cos(th, i);
         ms += wi * s;
         mc += wi * c;
     }
