@@ -243,15 +243,9 @@ mod tests {
     fn a_two_mode_cloud_reports_the_heavier_mode_not_the_wall_between() {
         let [x, y, th, w] = cloud(&[(0.0, 0.0, 0.0, 100, 0.4), (10.0, 4.0, 1.0, 100, 0.6)]);
         let mut s = ClusterScratch::default();
-        let (mean, cov, weight) = point_estimate(
-            PointEstimate::HeaviestCluster,
-            &x,
-            &y,
-            &th,
-            &w,
-            HeadingTrig::Compute,
-            &mut s,
-        );
+        let mut estimate =
+            |kind| point_estimate(kind, &x, &y, &th, &w, HeadingTrig::Compute, &mut s);
+        let (mean, cov, weight) = estimate(PointEstimate::HeaviestCluster);
         assert!(
             (mean.x - 10.0).abs() < 0.01 && (mean.y - 4.0).abs() < 0.01,
             "{mean:?}"
@@ -262,15 +256,7 @@ mod tests {
             cov[(0, 0)] < 0.02,
             "the cluster's own spread, not the modes': {cov}"
         );
-        let (whole, whole_cov, _) = point_estimate(
-            PointEstimate::WeightedMean,
-            &x,
-            &y,
-            &th,
-            &w,
-            HeadingTrig::Compute,
-            &mut s,
-        );
+        let (whole, whole_cov, _) = estimate(PointEstimate::WeightedMean);
         assert!((whole.x - 6.0).abs() < 0.01, "{whole:?}");
         assert!(whole_cov[(0, 0)] > 20.0);
     }
