@@ -138,6 +138,68 @@ pub fn cast_ray(field: &LikelihoodField, x: f64, y: f64, c: f64, s: f64, range_m
     range_max
 }
 
+/// Rays [`cast_rays`] keeps in flight: enough to keep the processor busy while each waits
+/// for its next distance lookup.
+const RAYS_IN_FLIGHT: usize = 8;
+
+/// [`cast_ray`] from `(x, y)` along each unit direction `(c, s)` of `dirs`, into `ranges`
+/// (the same length), bit for bit. A ray's steps wait on each other (each lookup decides the
+/// next), so one ray at a time leaves the processor waiting on memory; this advances up to
+/// [`RAYS_IN_FLIGHT`] rays a step each in turn, whose lookups overlap, and starts the next
+/// ray in the slot of one that ends.
+pub fn cast_rays(
+    field: &LikelihoodField,
+    (x, y): (f64, f64),
+    dirs: &[(f64, f64)],
+    range_max: f64,
+    ranges: &mut [f64],
+) {
+    let stop = 0.5 * field.resolution();
+    // Per slot: the ray it holds (`usize::MAX`: none left to start) and how far it has gone.
+    let mut ray = [usize::MAX; RAYS_IN_FLIGHT];
+    let mut t = [0.0; RAYS_IN_FLIGHT];
+    let mut next = 0;
+    for slot in ray.iter_mut().take(dirs.len()) {
+        *slot = next;
+        next += 1;
+    }
+    let mut live = dirs.len().min(RAYS_IN_FLIGHT);
+    while live > 0 {
+        for k in 0..RAYS_IN_FLIGHT {
+            let r = ray[k];
+            if r == usize::MAX {
+                continue;
+            }
+            let (c, s) = dirs[r];
+            // One iteration of `cast_ray`'s loop (its test first: NaN ends the ray).
+            let tk = t[k];
+            let end = if tk < range_max {
+                match field.distance(x + c * tk, y + s * tk) {
+                    None => Some(range_max),
+                    Some(d) if d <= stop => Some(tk),
+                    Some(d) => {
+                        t[k] = tk + (d - stop).max(stop);
+                        None
+                    }
+                }
+            } else {
+                Some(range_max)
+            };
+            if let Some(range) = end {
+                ranges[r] = range;
+                t[k] = 0.0;
+                if next < dirs.len() {
+                    ray[k] = next;
+                    next += 1;
+                } else {
+                    ray[k] = usize::MAX;
+                    live -= 1;
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -214,5 +276,33 @@ mod tests {
     fn a_ray_leaving_the_map_meets_nothing() {
         let f = room();
         assert_eq!(cast_ray(&f, -1.0, 1.0, -1.0, 0.0, 8.0), 8.0);
+    }
+
+    #[test]
+    fn rays_cast_together_are_the_rays_cast_alone_bit_for_bit() {
+        let f = room();
+        // 19 rays (two full groups in flight and a partial one) from inside the room, from
+        // outside it and from inside the thick wall, with ranges that end before, at and past
+        // the walls, and NaN.
+        let dirs: Vec<(f64, f64)> = (0..19)
+            .map(|k| {
+                let (s, c) = (0.37 * k as f64 - 3.0).sin_cos();
+                (c, s)
+            })
+            .collect();
+        let mut ranges = vec![f64::NAN; dirs.len()];
+        for origin in [(1.0, 1.0), (2.9, 0.3), (-1.0, 1.0), (3.2, 1.0), (3.9, 1.9)] {
+            for range_max in [0.5, 1.5, 8.0, f64::NAN] {
+                cast_rays(&f, origin, &dirs, range_max, &mut ranges);
+                for (&(c, s), &r) in dirs.iter().zip(&ranges) {
+                    let alone = cast_ray(&f, origin.0, origin.1, c, s, range_max);
+                    assert_eq!(
+                        r.to_bits(),
+                        alone.to_bits(),
+                        "{origin:?} {range_max} ({c}, {s})"
+                    );
+                }
+            }
+        }
     }
 }

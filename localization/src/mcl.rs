@@ -2,7 +2,7 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
-use crate::beam_model::{beam_probability, cast_ray, BeamModelParams};
+use crate::beam_model::{beam_probability, cast_rays, BeamModelParams};
 use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::initial_belief::{check_gaussian, gaussian_pose};
@@ -510,6 +510,8 @@ impl Mcl {
             beam_scratch: BeamScratch {
                 row: Vec::with_capacity(capacity),
                 headings: Headings::with_capacity(capacity),
+                dirs: Vec::with_capacity(params.max_beams),
+                ranges: Vec::with_capacity(params.max_beams),
             },
             free_cells: map.free_cells.clone(),
             grid_origin: map.origin,
@@ -913,6 +915,9 @@ impl Beams {
 struct BeamScratch {
     row: Vec<f64>,
     headings: Headings,
+    /// The beam model's ray directions (cos, sin) and predicted ranges for one particle.
+    dirs: Vec<(f64, f64)>,
+    ranges: Vec<f64>,
 }
 
 /// The laser model of one scan: the selected beams and the map they are weighed on.
@@ -959,7 +964,7 @@ impl<'a> ScanModel<'a> {
                 // the sums when enough particles explain the beam, in beam order as the plain
                 // sum adds them.
                 let n = x.len();
-                let BeamScratch { row, headings } = scratch;
+                let BeamScratch { row, headings, .. } = scratch;
                 row.resize(n, 0.0);
                 let poses = headings.poses(x, y, th);
                 let hit = field.log_likelihood_at_distance(p.beam_skip_distance);
@@ -992,12 +997,19 @@ impl<'a> ScanModel<'a> {
             }
             SensorModel::Beam => {
                 let bp = p.beam_params();
+                let BeamScratch { dirs, ranges, .. } = scratch;
+                ranges.resize(bx.len(), 0.0);
                 for (i, l) in out.iter_mut().enumerate() {
                     let o = Pose2::new(x[i], y[i], th[i]).compose(&mount);
-                    *l = 0.0;
-                    for (&a, &z) in bx.iter().zip(by) {
+                    dirs.clear();
+                    dirs.extend(bx.iter().map(|&a| {
                         let (s, c) = (o.theta + a).sin_cos();
-                        let z_star = cast_ray(field, o.x, o.y, c, s, range_max);
+                        (c, s)
+                    }));
+                    // A particle's rays together, so that their lookups overlap.
+                    cast_rays(field, (o.x, o.y), dirs, range_max, ranges);
+                    *l = 0.0;
+                    for (&z, &z_star) in by.iter().zip(ranges.iter()) {
                         *l += beam_probability(z, z_star, range_max, &bp).ln();
                     }
                 }
