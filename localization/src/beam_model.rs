@@ -3,7 +3,7 @@
 //! max-range failure and uniform noise. Unlike the likelihood field it ray-casts every beam on
 //! the map, so it uses the beams that return nothing (in a glass corridor, half of them) and
 //! it sees which wall a beam meets first, at many times the cost: on the route of
-//! corridor_tracking its filter takes about 25 times the likelihood field's time (NOTES.md's
+//! corridor_tracking its filter took 22 s against the likelihood field's 0.8 s (NOTES.md's
 //! real-time table, corridor_tracking_beam against corridor_tracking).
 //!
 //! Ray casting sphere-traces the likelihood field's distance transform: from the sensor the
@@ -156,6 +156,7 @@ pub fn cast_rays(
     range_max: f64,
     ranges: &mut [f64],
 ) {
+    assert_eq!(dirs.len(), ranges.len(), "one range per ray direction");
     let stop = 0.5 * field.resolution();
     // Per slot: the ray it holds (`usize::MAX`: none left to start) and how far it has gone.
     let mut ray = [usize::MAX; RAYS_IN_FLIGHT];
