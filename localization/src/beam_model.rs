@@ -10,6 +10,7 @@
 //! ray advances by the distance to the nearest surface, which can never step through one.
 
 use crate::likelihood_field::LikelihoodField;
+use std::ops::ControlFlow;
 
 /// Weights and shapes of the four components.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,18 +127,35 @@ fn erf(x: f64) -> f64 {
 pub fn cast_ray(field: &LikelihoodField, x: f64, y: f64, c: f64, s: f64, range_max: f64) -> f64 {
     let stop = 0.5 * field.resolution();
     let mut t = 0.0;
-    while t < range_max {
-        let d = match field.distance(x + c * t, y + s * t) {
-            Some(d) => d,
-            None => return range_max,
-        };
-        if d <= stop {
-            return t;
+    loop {
+        match ray_step(field, (x, y), (c, s), t, stop, range_max) {
+            ControlFlow::Continue(next) => t = next,
+            ControlFlow::Break(range) => return range,
         }
-        // At least half a cell, so a ray grazing a surface does not crawl.
-        t += (d - stop).max(stop);
     }
-    range_max
+}
+
+/// One step of sphere tracing from `t` along the ray: the next `t`, or the ray's range once
+/// it ends (at a surface, off the map, at `range_max`, or at NaN).
+#[inline(always)]
+fn ray_step(
+    field: &LikelihoodField,
+    (x, y): (f64, f64),
+    (c, s): (f64, f64),
+    t: f64,
+    stop: f64,
+    range_max: f64,
+) -> ControlFlow<f64, f64> {
+    if t < range_max {
+        match field.distance(x + c * t, y + s * t) {
+            None => ControlFlow::Break(range_max),
+            Some(d) if d <= stop => ControlFlow::Break(t),
+            // At least half a cell, so a ray grazing a surface does not crawl.
+            Some(d) => ControlFlow::Continue(t + (d - stop).max(stop)),
+        }
+    } else {
+        ControlFlow::Break(range_max)
+    }
 }
 
 /// Rays [`cast_rays`] keeps in flight: enough to keep the processor busy while each waits
@@ -151,7 +169,7 @@ const RAYS_IN_FLIGHT: usize = 8;
 /// ray in the slot of one that ends.
 pub fn cast_rays(
     field: &LikelihoodField,
-    (x, y): (f64, f64),
+    origin: (f64, f64),
     dirs: &[(f64, f64)],
     range_max: f64,
     ranges: &mut [f64],
@@ -159,44 +177,31 @@ pub fn cast_rays(
     assert_eq!(dirs.len(), ranges.len(), "one range per ray direction");
     let stop = 0.5 * field.resolution();
     // Per slot: the ray it holds (`usize::MAX`: none left to start) and how far it has gone.
+    let mut next = dirs.len().min(RAYS_IN_FLIGHT);
     let mut ray = [usize::MAX; RAYS_IN_FLIGHT];
-    let mut t = [0.0; RAYS_IN_FLIGHT];
-    let mut next = 0;
-    for slot in ray.iter_mut().take(dirs.len()) {
-        *slot = next;
-        next += 1;
+    for (k, slot) in ray.iter_mut().take(next).enumerate() {
+        *slot = k;
     }
-    let mut live = dirs.len().min(RAYS_IN_FLIGHT);
+    let mut t = [0.0; RAYS_IN_FLIGHT];
+    let mut live = next;
     while live > 0 {
         for k in 0..RAYS_IN_FLIGHT {
             let r = ray[k];
             if r == usize::MAX {
                 continue;
             }
-            let (c, s) = dirs[r];
-            // One iteration of `cast_ray`'s loop (its test first: NaN ends the ray).
-            let tk = t[k];
-            let end = if tk < range_max {
-                match field.distance(x + c * tk, y + s * tk) {
-                    None => Some(range_max),
-                    Some(d) if d <= stop => Some(tk),
-                    Some(d) => {
-                        t[k] = tk + (d - stop).max(stop);
-                        None
+            match ray_step(field, origin, dirs[r], t[k], stop, range_max) {
+                ControlFlow::Continue(step) => t[k] = step,
+                ControlFlow::Break(range) => {
+                    ranges[r] = range;
+                    t[k] = 0.0;
+                    if next < dirs.len() {
+                        ray[k] = next;
+                        next += 1;
+                    } else {
+                        ray[k] = usize::MAX;
+                        live -= 1;
                     }
-                }
-            } else {
-                Some(range_max)
-            };
-            if let Some(range) = end {
-                ranges[r] = range;
-                t[k] = 0.0;
-                if next < dirs.len() {
-                    ray[k] = next;
-                    next += 1;
-                } else {
-                    ray[k] = usize::MAX;
-                    live -= 1;
                 }
             }
         }

@@ -553,7 +553,9 @@ pub fn vertical_planes_on_floor(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use atrium_robots::{DepthCameraSpec, Mount3};
     use rand::Rng;
+    use rand_distr::StandardNormal;
 
     #[test]
     fn draws_are_rands_bit_for_bit() {
@@ -584,8 +586,6 @@ mod tests {
             assert_eq!(ours, rands, "seed {seed}: the streams fell out of step");
         }
     }
-    use atrium_robots::{DepthCameraSpec, Mount3};
-    use rand_distr::StandardNormal;
 
     /// A plane n·p = c in the camera frame.
     struct Plane {
