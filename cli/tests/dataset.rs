@@ -147,9 +147,9 @@ fn recording_reads_back_with_expected_schemas_counts_and_metadata() {
 
 #[test]
 fn replay_equals_live_with_the_same_seed() {
-    // The kidnapped scenario (an event, two localizers, random injection) cut to 20 s: the
-    // kidnapping at 8 s is inside.
-    let scenario = bundled_short("kidnapped", 20.0);
+    // The kidnapped scenario (an event, two localizers, random injection) cut to 30 s: the
+    // kidnapping at 8 s and the recovery (12.2 s later) are inside, so the run passes.
+    let scenario = bundled_short("kidnapped", 30.0);
     let live = run_scenario(&scenario, RunOptions::default()).unwrap();
     let dir = tmpdir("replay");
     let out = dir.join("kidnapped.mcap");
@@ -171,7 +171,7 @@ fn replay_equals_live_with_the_same_seed() {
         assert_eq!(a.samples, b.samples, "{}", a.name);
         assert_eq!(a.trajectory, b.trajectory, "{}", a.name);
     }
-    assert!(live.localizers[0].samples.len() == 200);
+    assert!(live.localizers[0].samples.len() == 300);
 
     // The CLI: replay --json matches, and --out writes TUM trajectories.
     let tum = dir.join("out");
@@ -194,7 +194,7 @@ fn replay_equals_live_with_the_same_seed() {
     d.remove("recording");
     assert_eq!(doc, results(&live));
     let gt = std::fs::read_to_string(tum.join("ground_truth.tum")).unwrap();
-    assert_eq!(gt.lines().count(), 200);
+    assert_eq!(gt.lines().count(), 300);
     assert!(gt.lines().all(|l| l.split_whitespace().count() == 8));
     assert!(tum.join("mcl.tum").exists() && tum.join("odometry.tum").exists());
 

@@ -85,7 +85,7 @@ fn kidnapped_ekf_cannot_recover_where_mcl_does() {
     assert!(matches!(run(&result, "mcl").recoveries[..], [Some(s)] if s <= 30.0));
     // A single Gaussian cannot: once the robot is carried off, the belief stays metres from
     // it and the gate keeps out the beams that would say so. It never converges again and
-    // ends about 18 m off, worse than dead reckoning's 14 m.
+    // ends about 17 m off, worse than dead reckoning's 12 m.
     assert_eq!(run(&result, "wall_ekf").recoveries, vec![None]);
     let final_error = |name| {
         run(&result, name)
