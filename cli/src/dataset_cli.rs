@@ -1,7 +1,7 @@
 //! The `record` and `replay` subcommands of `atrium` (the binary parses the arguments and
 //! calls these). Errors are bad input (exit 2); `Ok(false)` means expectations not met.
 
-use atrium_experiments::dataset::{self, record, replay, ReplayOptions};
+use atrium_recordings::{self as dataset, record, replay, ReplayOptions};
 use atrium_scenarios::runner::RunOptions;
 use atrium_scenarios::{output, report, LocalizerRegistry, Scenario};
 use std::io::IsTerminal;

@@ -524,7 +524,7 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
                 .map_err(anyhow::Error::msg)?;
             // clap admits only "sdf"; the match keeps a new format from being half-wired.
             let text = match format.as_str() {
-                "sdf" => atrium_worlds::to_sdf(&w),
+                "sdf" => atrium_formats::sdf::to_sdf(&w),
                 other => {
                     return Err(anyhow::anyhow!("--format: unknown format {other:?} (sdf)").into())
                 }

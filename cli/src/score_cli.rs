@@ -1,8 +1,8 @@
 //! `atrium score RECORDING ESTIMATES`: another stack's estimates scored against a recording's
-//! ground truth (see `atrium_experiments::score`). Errors are bad input (exit 2); `Ok(false)`
+//! ground truth (see `atrium_recordings::score`). Errors are bad input (exit 2); `Ok(false)`
 //! means expectations not met; warnings go to stderr (and under `score.warnings` in JSON).
 
-use atrium_experiments::score::{score, ScoreOptions};
+use atrium_recordings::score::{score, ScoreOptions};
 use atrium_scenarios::output;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 
 mod common;
 
-use atrium_experiments::dataset::{self, replay::Recording, ReplayOptions};
+use atrium_recordings::{self as dataset, replay::Recording, ReplayOptions};
 use atrium_scenarios::{output, report, run_scenario, RunOptions, Scenario};
 use common::{atrium, tmpdir};
 use std::collections::BTreeMap;

@@ -36,7 +36,7 @@ fn writes_the_worlds_sdf_and_nothing_else() {
     let o = export(&world, "sdf", &out);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("wrote"), "{}", stderr(&o));
-    let expected = atrium_worlds::to_sdf(&atrium_worlds::World::load(&world).unwrap());
+    let expected = atrium_formats::sdf::to_sdf(&atrium_worlds::World::load(&world).unwrap());
     assert_eq!(std::fs::read_to_string(&out).unwrap(), expected);
     assert!(expected.contains("<sdf version=\"1.9\">"));
     // Written under a temporary name and renamed: only the result is left.

@@ -31,6 +31,17 @@ pub enum ScenarioError {
     Robot(#[from] atrium_robots::RobotError),
 }
 
+impl From<atrium_formats::FormatError> for ScenarioError {
+    fn from(e: atrium_formats::FormatError) -> Self {
+        use atrium_formats::FormatError as F;
+        match e {
+            F::Io { file, err } => ScenarioError::Io { file, err },
+            F::Write { file, err } => ScenarioError::Write { file, err },
+            F::Field { file, field, msg } => ScenarioError::Field { file, field, msg },
+        }
+    }
+}
+
 impl ScenarioError {
     pub fn field(file: &std::path::Path, field: impl Into<String>, msg: impl Into<String>) -> Self {
         ScenarioError::Field {

@@ -3,10 +3,10 @@
 //! SVG/PNG pictures, TUM trajectories). Experiments, sweeps, datasets and the `atrium` CLI
 //! build on it in `atrium-experiments` and `atrium-cli`.
 //!
-//! Modules depend one way, in this order: the format (`error`, `seeds`, `scenario`,
+//! Modules depend one way, in this order: the format (`error`, `seeds`, `trajectory`, `scenario`,
 //! `camera_sensors`, `route_jitter`, `node_route`) → expectations (`verdict`, `metrics`,
-//! `slam`, `expect`) → `runner` → `maps` and `registry` → `builtins` and `error_maps` →
-//! reports (`report`, `output`, `plot`, `slam_plot`, `tum`).
+//! `relations`, `slam`, `expect`) → `runner` → `maps` and `registry` → `builtins` and `error_maps` →
+//! reports (`report`, `output`, `plot`, `slam_plot`).
 
 pub mod builtins;
 pub mod camera_sensors;
@@ -22,6 +22,7 @@ pub mod node_route;
 pub mod output;
 pub mod plot;
 pub mod registry;
+pub mod relations;
 pub mod report;
 pub mod route_jitter;
 pub mod runner;
@@ -29,7 +30,7 @@ pub mod scenario;
 pub mod seeds;
 pub mod slam;
 pub mod slam_plot;
-pub mod tum;
+pub mod trajectory;
 pub mod verdict;
 
 pub use atrium_localization::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};

@@ -148,12 +148,12 @@ pub fn write_run(
     };
     put(
         "ground_truth.tum".into(),
-        crate::tum::to_tum(&run.ground_truth).into_bytes(),
+        atrium_formats::tum::to_tum(&run.ground_truth).into_bytes(),
     )?;
     for l in &run.localizers {
         put(
             format!("{}.tum", l.name),
-            crate::tum::to_tum(&l.trajectory).into_bytes(),
+            atrium_formats::tum::to_tum(&l.trajectory).into_bytes(),
         )?;
         put(
             format!("trajectory_{}.svg", l.name),

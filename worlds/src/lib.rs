@@ -9,7 +9,6 @@ pub mod geometry;
 pub mod lighting;
 pub mod loader;
 pub mod map;
-pub mod sdf;
 pub mod wifi;
 pub mod world;
 
@@ -20,6 +19,5 @@ pub use generate::{
 };
 pub use loader::{MAX_COORDINATE_M, MAX_POLYGON_POINTS, MIN_SIZE_M};
 pub use map::{Cell, GridSize, OccupancyGrid, Segment, VectorMap};
-pub use sdf::to_sdf;
 pub use wifi::{AccessPoint, WifiEnvironment};
 pub use world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World, CAMPUS_TOML};

@@ -1,0 +1,4 @@
+//! rosbag2 folders: `metadata.yaml` and one or more storage files (MCAP or sqlite3) of CDR
+//! messages.
+
+pub mod schemas;

@@ -1,0 +1,905 @@
+//! Reading ROS 2 bags (a rosbag2 folder with MCAP storage) for `atrium replay` and
+//! `atrium score`: `metadata.yaml` is read and checked first (storage `mcap`, one storage
+//! file, CDR, every topic of a message type Atrium reads: the refusal names the topic), then
+//! the MCAP file goes through the same checked reader and checks as a Foxglove-profile
+//! recording (`replay::Recording`), and [`Decoder`] turns its CDR messages into readings.
+//!
+//! Exactness: with Atrium's exact side channels (`/odom/wheels`, `/atrium/score`,
+//! `/atrium/ranges/<laser>`) and channel metadata a replay is exactly the live run; a bag from
+//! elsewhere falls back to `/odom`, `/ground_truth`, the float32 ranges and the range limits
+//! and intrinsics of its `LaserScan` and `CameraInfo` messages.
+
+use super::record::ros_topics;
+use crate::record::events_from_json;
+use crate::replay::Recording;
+use crate::topics;
+use atrium_formats::cdr::CdrReader;
+use atrium_formats::mcap::foxglove as codec;
+use atrium_formats::mcap::images;
+use atrium_formats::rosbag2::schemas as msgs;
+use atrium_robots::{
+    LandmarkDetection, LandmarkDetections, Pose2, Reading, WheelOdometry, WifiReading, WifiScan,
+};
+use atrium_scenarios::error::ScenarioError;
+use atrium_scenarios::scenario::Event;
+use foxglove::messages as fg;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// A tiny YAML subset reader, enough for rosbag2's `metadata.yaml` (block mappings and
+/// sequences, plain and quoted scalars, empty flow collections). The workspace has no YAML
+/// crate; this reads what rosbag2 (yaml-cpp), `rosbags` (ruamel) and Atrium write.
+pub mod yaml {
+    #[derive(Debug, Clone, PartialEq)]
+    pub enum Value {
+        Map(Vec<(String, Value)>),
+        Seq(Vec<Value>),
+        Str(String),
+    }
+
+    impl Value {
+        pub fn get(&self, key: &str) -> Option<&Value> {
+            match self {
+                Value::Map(m) => m.iter().find(|(k, _)| k == key).map(|(_, v)| v),
+                _ => None,
+            }
+        }
+        pub fn as_str(&self) -> Option<&str> {
+            match self {
+                Value::Str(s) => Some(s),
+                _ => None,
+            }
+        }
+        pub fn as_seq(&self) -> Option<&[Value]> {
+            match self {
+                Value::Seq(v) => Some(v),
+                // `key: []` or an empty `key:`.
+                Value::Str(s) if s.is_empty() || s == "[]" => Some(&[]),
+                _ => None,
+            }
+        }
+    }
+
+    /// Where a line comment starts (a `#` after a blank, outside quotes), if any.
+    fn strip_comment(s: &str) -> &str {
+        let (mut single, mut double, mut prev) = (false, false, ' ');
+        for (i, c) in s.char_indices() {
+            match c {
+                '\'' if !double => single = !single,
+                '"' if !single && prev != '\\' => double = !double,
+                '#' if !single && !double && prev.is_whitespace() => return s[..i].trim_end(),
+                _ => {}
+            }
+            prev = c;
+        }
+        s.trim_end()
+    }
+
+    fn unquote(s: &str, line: usize) -> Result<String, String> {
+        let s = s.trim();
+        if let Some(body) = s.strip_prefix('"') {
+            let body = body
+                .strip_suffix('"')
+                .ok_or_else(|| format!("line {line}: unterminated double-quoted string"))?;
+            let mut out = String::new();
+            let mut chars = body.chars();
+            while let Some(c) = chars.next() {
+                if c != '\\' {
+                    out.push(c);
+                    continue;
+                }
+                match chars.next() {
+                    Some('n') => out.push('\n'),
+                    Some('t') => out.push('\t'),
+                    Some('r') => out.push('\r'),
+                    Some('0') => out.push('\0'),
+                    Some('"') => out.push('"'),
+                    Some('\\') => out.push('\\'),
+                    Some('/') => out.push('/'),
+                    Some(' ') => out.push(' '),
+                    Some(k @ ('x' | 'u' | 'U')) => {
+                        let n = match k {
+                            'x' => 2,
+                            'u' => 4,
+                            _ => 8,
+                        };
+                        let hex: String = chars.by_ref().take(n).collect();
+                        let c = u32::from_str_radix(&hex, 16)
+                            .ok()
+                            .and_then(char::from_u32)
+                            .ok_or_else(|| format!("line {line}: bad escape \\{k}{hex}"))?;
+                        out.push(c);
+                    }
+                    other => return Err(format!("line {line}: unknown escape \\{other:?}")),
+                }
+            }
+            Ok(out)
+        } else if let Some(body) = s.strip_prefix('\'') {
+            let body = body
+                .strip_suffix('\'')
+                .ok_or_else(|| format!("line {line}: unterminated single-quoted string"))?;
+            Ok(body.replace("''", "'"))
+        } else if s == "{}" {
+            Ok(String::new())
+        } else {
+            Ok(s.to_string())
+        }
+    }
+
+    /// (indent, text, 1-based line number) of every line with content.
+    type Lines = Vec<(usize, String, usize)>;
+
+    /// Parses `text` into a value; errors name the line.
+    pub fn parse(text: &str) -> Result<Value, String> {
+        let mut lines: Lines = Vec::new();
+        let mut raw = text.lines().enumerate().peekable();
+        while let Some((n, l)) = raw.next() {
+            let mut l = l.to_string();
+            // A double-quoted scalar folded over several lines (ruamel wraps long ones).
+            while l.matches('"').count() % 2 == 1 && l.contains(": \"") {
+                match raw.next() {
+                    Some((_, next)) => {
+                        if l.ends_with('\\') {
+                            l.pop();
+                            l.push_str(next.trim_start());
+                        } else {
+                            l.push(' ');
+                            l.push_str(next.trim());
+                        }
+                    }
+                    None => break,
+                }
+            }
+            let content = strip_comment(&l);
+            let trimmed = content.trim_start();
+            if trimmed.is_empty() || trimmed == "---" || trimmed == "..." {
+                continue;
+            }
+            lines.push((content.len() - trimmed.len(), trimmed.to_string(), n + 1));
+        }
+        if lines.is_empty() {
+            return Ok(Value::Map(Vec::new()));
+        }
+        let mut i = 0;
+        let indent = lines[0].0;
+        let v = block(&mut lines, &mut i, indent)?;
+        if i < lines.len() {
+            return Err(format!("line {}: unexpected indentation", lines[i].2));
+        }
+        Ok(v)
+    }
+
+    fn is_seq_item(s: &str) -> bool {
+        s == "-" || s.starts_with("- ")
+    }
+
+    /// Splits `key: value` (None when the line is no mapping entry).
+    fn key_value(s: &str) -> Option<(String, &str)> {
+        if s.starts_with('"') || s.starts_with('\'') {
+            let q = s.chars().next()?;
+            let end = s[1..].find(q)? + 1;
+            let rest = s[end + 1..].strip_prefix(':')?;
+            if !(rest.is_empty() || rest.starts_with(' ')) {
+                return None;
+            }
+            return Some((unquote(&s[..=end], 0).ok()?, rest.trim()));
+        }
+        let pos = s
+            .find(": ")
+            .or_else(|| s.ends_with(':').then(|| s.len() - 1))?;
+        Some((s[..pos].trim().to_string(), s[pos + 1..].trim()))
+    }
+
+    fn block(lines: &mut Lines, i: &mut usize, indent: usize) -> Result<Value, String> {
+        if is_seq_item(&lines[*i].1) {
+            let mut items = Vec::new();
+            while *i < lines.len() && lines[*i].0 == indent && is_seq_item(&lines[*i].1) {
+                let (_, text, n) = lines[*i].clone();
+                let rest = text[1..].trim_start();
+                if rest.is_empty() {
+                    *i += 1;
+                    if *i < lines.len() && lines[*i].0 > indent {
+                        let inner = lines[*i].0;
+                        items.push(block(lines, i, inner)?);
+                    } else {
+                        items.push(Value::Str(String::new()));
+                    }
+                } else if key_value(rest).is_some() || is_seq_item(rest) {
+                    // `- key: value`: a mapping whose first line starts after the dash.
+                    let inner = indent + (text.len() - rest.len());
+                    lines[*i] = (inner, rest.to_string(), n);
+                    items.push(block(lines, i, inner)?);
+                } else {
+                    items.push(Value::Str(unquote(rest, n)?));
+                    *i += 1;
+                }
+            }
+            return Ok(Value::Seq(items));
+        }
+        let mut map = Vec::new();
+        while *i < lines.len() && lines[*i].0 == indent {
+            let (_, text, n) = lines[*i].clone();
+            if is_seq_item(&text) {
+                return Err(format!("line {n}: a list item among mapping keys"));
+            }
+            let (key, value) =
+                key_value(&text).ok_or_else(|| format!("line {n}: expected `key: value`"))?;
+            *i += 1;
+            let v = if !value.is_empty() {
+                if value == "[]" {
+                    Value::Seq(Vec::new())
+                } else {
+                    Value::Str(unquote(value, n)?)
+                }
+            } else if *i < lines.len()
+                && (lines[*i].0 > indent || (lines[*i].0 == indent && is_seq_item(&lines[*i].1)))
+            {
+                let inner = lines[*i].0;
+                block(lines, i, inner)?
+            } else {
+                Value::Str(String::new())
+            };
+            map.push((key, v));
+        }
+        if *i < lines.len() && lines[*i].0 > indent {
+            return Err(format!("line {}: unexpected indentation", lines[*i].2));
+        }
+        Ok(Value::Map(map))
+    }
+}
+
+fn bad(file: &Path, what: impl Into<String>, msg: impl Into<String>) -> ScenarioError {
+    ScenarioError::field(file, what, msg)
+}
+
+/// One topic as `metadata.yaml` lists it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagTopic {
+    pub name: String,
+    pub msg_type: String,
+    pub count: u64,
+}
+
+/// What `metadata.yaml` says of a bag.
+#[derive(Debug, Clone)]
+pub struct BagInfo {
+    pub dir: PathBuf,
+    pub version: u64,
+    /// The one storage file.
+    pub storage: PathBuf,
+    pub topics: Vec<BagTopic>,
+}
+
+/// Whether `path` is a folder (a bag, for replay and score).
+pub fn is_bag(path: &Path) -> bool {
+    path.is_dir()
+}
+
+/// Reads and checks `<dir>/metadata.yaml`: format, storage `mcap`, one storage file that
+/// exists, CDR, and every topic's type one Atrium reads ([`msgs::TOP_LEVEL`]).
+pub fn bag_info(dir: &Path) -> Result<BagInfo, ScenarioError> {
+    let yaml_path = dir.join("metadata.yaml");
+    let text = match std::fs::read_to_string(&yaml_path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(bad(
+                dir,
+                "metadata.yaml",
+                "the folder has no metadata.yaml: it is not a ROS 2 bag (a rosbag2 folder holds metadata.yaml and its storage file; `ros2 bag reindex` rebuilds a lost one)",
+            ))
+        }
+        Err(err) => {
+            return Err(ScenarioError::Io {
+                file: yaml_path,
+                err,
+            })
+        }
+    };
+    let doc = yaml::parse(&text).map_err(|e| bad(&yaml_path, "yaml", e))?;
+    let info = doc.get("rosbag2_bagfile_information").ok_or_else(|| {
+        bad(
+            &yaml_path,
+            "rosbag2_bagfile_information",
+            "missing: not a rosbag2 metadata file",
+        )
+    })?;
+    let field = |k: &str| format!("rosbag2_bagfile_information.{k}");
+    let str_of = |v: &yaml::Value, k: &str| -> Result<String, ScenarioError> {
+        v.get(k)
+            .and_then(yaml::Value::as_str)
+            .map(str::to_string)
+            .ok_or_else(|| bad(&yaml_path, field(k), "missing"))
+    };
+    let version: u64 = str_of(info, "version")?
+        .parse()
+        .map_err(|_| bad(&yaml_path, field("version"), "not a number"))?;
+    let storage_id = str_of(info, "storage_identifier")?;
+    if storage_id != "mcap" {
+        return Err(bad(
+            &yaml_path,
+            field("storage_identifier"),
+            format!("{storage_id:?}: Atrium reads bags with MCAP storage only (convert with `ros2 bag convert`)"),
+        ));
+    }
+    let compression = info
+        .get("compression_mode")
+        .and_then(yaml::Value::as_str)
+        .unwrap_or("");
+    if !(compression.is_empty() || compression.eq_ignore_ascii_case("none")) {
+        return Err(bad(
+            &yaml_path,
+            field("compression_mode"),
+            format!(
+                "{compression:?}: compressed bag files are not read (MCAP chunk compression is)"
+            ),
+        ));
+    }
+    let files: Vec<&str> = info
+        .get("relative_file_paths")
+        .and_then(yaml::Value::as_seq)
+        .ok_or_else(|| bad(&yaml_path, field("relative_file_paths"), "missing"))?
+        .iter()
+        .filter_map(yaml::Value::as_str)
+        .collect();
+    let file = match files.as_slice() {
+        [one] => *one,
+        other => {
+            return Err(bad(
+                &yaml_path,
+                field("relative_file_paths"),
+                format!(
+                    "{} storage files: Atrium reads bags of exactly one (split bags are not read)",
+                    other.len()
+                ),
+            ))
+        }
+    };
+    // rosbag2 resolves the name inside the bag folder, whatever folder it was written under.
+    let name = Path::new(file).file_name().ok_or_else(|| {
+        bad(
+            &yaml_path,
+            field("relative_file_paths"),
+            format!("{file:?} names no file"),
+        )
+    })?;
+    let storage = dir.join(name);
+    if !storage.is_file() {
+        return Err(bad(
+            &yaml_path,
+            field("relative_file_paths"),
+            format!("the storage file {} does not exist", storage.display()),
+        ));
+    }
+    let list = info
+        .get("topics_with_message_count")
+        .and_then(yaml::Value::as_seq)
+        .ok_or_else(|| bad(&yaml_path, field("topics_with_message_count"), "missing"))?;
+    let mut topics = Vec::new();
+    for (k, t) in list.iter().enumerate() {
+        let at = field(&format!("topics_with_message_count[{k}]"));
+        let meta = t
+            .get("topic_metadata")
+            .ok_or_else(|| bad(&yaml_path, &at, "lacks topic_metadata"))?;
+        let get = |key: &str| {
+            meta.get(key)
+                .and_then(yaml::Value::as_str)
+                .map(str::to_string)
+                .ok_or_else(|| bad(&yaml_path, format!("{at}.topic_metadata.{key}"), "missing"))
+        };
+        let name = get("name")?;
+        let msg_type = get("type")?;
+        let format = get("serialization_format")?;
+        if format != "cdr" {
+            return Err(bad(
+                &yaml_path,
+                format!("topic {name}"),
+                format!("serialization format {format:?}: Atrium reads CDR only"),
+            ));
+        }
+        check_type(&name, &msg_type).map_err(|m| bad(&yaml_path, format!("topic {name}"), m))?;
+        let count = t
+            .get("message_count")
+            .and_then(yaml::Value::as_str)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or(0);
+        topics.push(BagTopic {
+            name,
+            msg_type,
+            count,
+        });
+    }
+    Ok(BagInfo {
+        dir: dir.to_path_buf(),
+        version,
+        storage,
+        topics,
+    })
+}
+
+/// The message type Atrium writes on `topic`, if it is one of its topics.
+pub fn expected_type(topic: &str) -> Option<&'static str> {
+    let info = |t: &str| t.ends_with(ros_topics::CAMERA_INFO_SUFFIX);
+    Some(match topic {
+        topics::ODOM => msgs::ODOMETRY,
+        topics::ODOM_WHEELS => msgs::WHEEL_ODOMETRY,
+        topics::GROUND_TRUTH => msgs::POSE_COV_STAMPED,
+        topics::SCORE => msgs::SCORING_INSTANT,
+        topics::EVENTS => msgs::STRING,
+        topics::TF | ros_topics::TF_STATIC => msgs::TF_MESSAGE,
+        ros_topics::MAP => msgs::OCCUPANCY_GRID,
+        ros_topics::ROBOT_DESCRIPTION => msgs::STRING,
+        ros_topics::CLOCK => msgs::CLOCK,
+        t if t.starts_with(ros_topics::RANGES_PREFIX) => msgs::LASER_RANGES,
+        t if t.starts_with(topics::SCAN_PREFIX) => msgs::LASER_SCAN,
+        t if (t.starts_with(topics::DEPTH_PREFIX)
+            || t.starts_with(topics::IMAGE_PREFIX)
+            || t.starts_with(topics::DISPARITY_PREFIX))
+            && info(t) =>
+        {
+            msgs::CAMERA_INFO
+        }
+        t if t.starts_with(topics::DEPTH_PREFIX)
+            || t.starts_with(topics::IMAGE_PREFIX)
+            || t.starts_with(topics::DISPARITY_PREFIX) =>
+        {
+            msgs::IMAGE
+        }
+        t if t.starts_with(topics::WIFI_PREFIX) => msgs::WIFI_SCAN,
+        t if t.starts_with(topics::LANDMARKS_PREFIX) => msgs::LANDMARKS,
+        t if t.starts_with(topics::ESTIMATE_PREFIX) => msgs::POSE_COV_STAMPED,
+        _ => return None,
+    })
+}
+
+/// A topic's message type must be one Atrium reads, and the one it writes on an Atrium topic.
+pub fn check_type(topic: &str, msg_type: &str) -> Result<(), String> {
+    if !msgs::TOP_LEVEL.contains(&msg_type) {
+        return Err(format!(
+            "unknown message type {msg_type:?}: Atrium reads {}",
+            msgs::TOP_LEVEL.join(", ")
+        ));
+    }
+    match expected_type(topic) {
+        Some(want) if want != msg_type => {
+            Err(format!("has message type {msg_type:?}, expected {want:?}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// A channel of the bag's MCAP file: `ros2msg` schema of a known type, CDR messages.
+pub fn check_channel(topic: &str, schema: &str, encoding: &str) -> Result<(), String> {
+    if encoding != "cdr" {
+        return Err(format!("message encoding {encoding:?}, expected \"cdr\""));
+    }
+    check_type(topic, schema)
+}
+
+/// Opens the bag folder `dir` as a recording (see the module docs).
+pub fn open(dir: &Path) -> Result<Recording, ScenarioError> {
+    let info = bag_info(dir)?;
+    let bytes = std::fs::read(&info.storage).map_err(|err| ScenarioError::Io {
+        file: info.storage.clone(),
+        err,
+    })?;
+    let rec = Recording::from_bytes_profile(bytes, &info.storage, true)?;
+    // metadata.yaml and the storage file must tell the same story.
+    let in_file = rec.topics();
+    for t in &info.topics {
+        if let Some((_, schema)) = in_file.iter().find(|(n, _)| *n == t.name) {
+            if *schema != t.msg_type {
+                return Err(bad(
+                    &info.storage,
+                    format!("topic {}", t.name),
+                    format!(
+                        "message type {schema:?} in the storage file, {:?} in metadata.yaml",
+                        t.msg_type
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(rec)
+}
+
+/// The storage (MCAP) file of the bag folder `dir`, for readers of single topics (`score`'s
+/// estimates).
+pub fn storage_file(dir: &Path) -> Result<PathBuf, ScenarioError> {
+    bag_info(dir).map(|i| i.storage)
+}
+
+// ---- CDR decoders ----
+
+fn header(r: &mut CdrReader) -> Result<(u64, String), String> {
+    let sec = r.i32()?;
+    let nsec = r.u32()?;
+    let frame = r.string()?;
+    Ok((
+        (i64::from(sec) * 1_000_000_000 + i64::from(nsec)).max(0) as u64,
+        frame,
+    ))
+}
+
+fn pose(r: &mut CdrReader) -> Result<(Pose2, [f64; 7]), String> {
+    let v = r.f64_array::<7>()?;
+    let q = fg::Quaternion {
+        x: v[3],
+        y: v[4],
+        z: v[5],
+        w: v[6],
+    };
+    Ok((Pose2::new(v[0], v[1], codec::yaw_of(&q)), v))
+}
+
+/// One `sensor_msgs/Image` as a Foxglove raw image (what the image decoders read).
+fn image(data: &[u8]) -> Result<fg::RawImage, String> {
+    let mut r = CdrReader::new(data)?;
+    let (ns, frame_id) = header(&mut r)?;
+    let height = r.u32()?;
+    let width = r.u32()?;
+    let encoding = r.string()?;
+    if r.u8()? != 0 {
+        return Err("big-endian image data is not read".into());
+    }
+    let step = r.u32()?;
+    let pixels = r.bytes()?;
+    Ok(fg::RawImage {
+        timestamp: Some(codec::timestamp(ns)),
+        frame_id,
+        width,
+        height,
+        encoding,
+        step,
+        data: foxglove::bytes::Bytes::copy_from_slice(pixels),
+    })
+}
+
+/// Intrinsics of a `sensor_msgs/CameraInfo` as channel-metadata keys (`fx`, `fy`, `cx`,
+/// `cy`, and `baseline` from P[3] = −fx · baseline when P[3] is not 0).
+fn camera_info(data: &[u8]) -> Result<BTreeMap<String, String>, String> {
+    let mut r = CdrReader::new(data)?;
+    header(&mut r)?;
+    let _height = r.u32()?;
+    let _width = r.u32()?;
+    let _model = r.string()?;
+    let _d = r.f64_seq()?;
+    let k = r.f64_array::<9>()?;
+    let _r = r.f64_array::<9>()?;
+    let p = r.f64_array::<12>()?;
+    let f = |v: f64| format!("{v:?}");
+    let mut m = BTreeMap::from([
+        ("fx".to_string(), f(k[0])),
+        ("fy".into(), f(k[4])),
+        ("cx".into(), f(k[2])),
+        ("cy".into(), f(k[5])),
+    ]);
+    if p[3] != 0.0 && p[0] != 0.0 {
+        m.insert("baseline".into(), f(-p[3] / p[0]));
+    }
+    Ok(m)
+}
+
+/// Channel metadata with `defaults` filled in where it has no value.
+fn with_defaults(
+    meta: &BTreeMap<String, String>,
+    defaults: Option<&BTreeMap<String, String>>,
+) -> BTreeMap<String, String> {
+    let mut m = meta.clone();
+    for (k, v) in defaults.into_iter().flatten() {
+        m.entry(k.clone()).or_insert_with(|| v.clone());
+    }
+    m
+}
+
+/// Turns a bag's CDR messages into readings, for replay's stream.
+pub struct Decoder {
+    base_link: String,
+    use_wheels: bool,
+    use_score: bool,
+    /// Planar poses of frames relative to the base link, from `/tf` and `/tf_static`.
+    frames: HashMap<String, Pose2>,
+    /// Exact ranges per laser topic suffix, with their log time.
+    ranges: HashMap<String, (u64, Vec<f64>)>,
+    /// Intrinsics per image topic from its CameraInfo.
+    infos: HashMap<String, BTreeMap<String, String>>,
+}
+
+impl Decoder {
+    /// `topics`: the topics of the bag (the exact side channels are used when present).
+    pub fn new(base_link: String, topic_names: &[String]) -> Decoder {
+        let has = |t: &str| topic_names.iter().any(|n| n == t);
+        Decoder {
+            base_link,
+            use_wheels: has(topics::ODOM_WHEELS),
+            use_score: has(topics::SCORE),
+            frames: HashMap::new(),
+            ranges: HashMap::new(),
+            infos: HashMap::new(),
+        }
+    }
+
+    /// Decodes one message on `topic` (type `schema`, channel metadata `meta`) at log time
+    /// `ns` (`stamp` seconds on the replay clock) into `readings`, the scoring instant or
+    /// `events`. Errors say what is wrong with the message.
+    #[allow(clippy::too_many_arguments)]
+    pub fn handle(
+        &mut self,
+        topic: &str,
+        schema: &str,
+        meta: &BTreeMap<String, String>,
+        ns: u64,
+        stamp: f64,
+        data: &[u8],
+        readings: &mut Vec<Reading>,
+        score: &mut Option<(f64, Pose2)>,
+        events: &mut Vec<Event>,
+    ) -> Result<(), String> {
+        match schema {
+            msgs::WHEEL_ODOMETRY if self.use_wheels => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                let (x, y, theta) = (r.f64()?, r.f64()?, r.f64()?);
+                readings.push(Reading::Odometry(WheelOdometry {
+                    stamp,
+                    pose: Pose2::new(x, y, theta),
+                    left_ticks: r.i64()?,
+                    right_ticks: r.i64()?,
+                }));
+            }
+            msgs::ODOMETRY if !self.use_wheels && topic == topics::ODOM => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                r.string()?;
+                readings.push(Reading::Odometry(WheelOdometry {
+                    stamp,
+                    pose: pose(&mut r)?.0,
+                    left_ticks: 0,
+                    right_ticks: 0,
+                }));
+            }
+            msgs::SCORING_INSTANT if self.use_score => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                let v = r.f64_array::<4>()?;
+                *score = Some((v[0], Pose2::new(v[1], v[2], v[3])));
+            }
+            msgs::POSE_COV_STAMPED if !self.use_score && topic == topics::GROUND_TRUTH => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                *score = Some((stamp, pose(&mut r)?.0));
+            }
+            msgs::STRING if topic == topics::EVENTS => {
+                let text = CdrReader::new(data)?.string()?;
+                let v: serde_json::Value =
+                    serde_json::from_str(&text).map_err(|e| e.to_string())?;
+                events.append(&mut events_from_json(&serde_json::Value::Array(vec![v]))?);
+            }
+            msgs::TF_MESSAGE => {
+                let mut r = CdrReader::new(data)?;
+                let n = r.len(4 * 4 + 8 * 7)?;
+                for _ in 0..n {
+                    let (_, parent) = header(&mut r)?;
+                    let child = r.string()?;
+                    let (p, _) = pose(&mut r)?;
+                    if parent == self.base_link {
+                        self.frames.insert(child, p);
+                    }
+                }
+            }
+            msgs::LASER_RANGES => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                let sensor = topic
+                    .strip_prefix(ros_topics::RANGES_PREFIX)
+                    .unwrap_or(topic);
+                self.ranges.insert(sensor.to_string(), (ns, r.f64_seq()?));
+            }
+            msgs::LASER_SCAN => {
+                let mut r = CdrReader::new(data)?;
+                let (_, frame_id) = header(&mut r)?;
+                let mut v = [0.0f32; 7];
+                for x in &mut v {
+                    *x = r.f32()?;
+                }
+                let [angle_min, angle_max, angle_increment, _, _, range_min, range_max] = v;
+                let sensor = topic.strip_prefix(topics::SCAN_PREFIX).unwrap_or(topic);
+                let short = r.f32_seq()?;
+                let ranges = match self.ranges.remove(sensor) {
+                    Some((at, exact)) if at == ns && exact.len() == short.len() => exact,
+                    _ => short.iter().map(|&x| f64::from(x)).collect(),
+                };
+                // A bag from elsewhere: the message's own limits and increment.
+                let f = |x: f32| format!("{:?}", f64::from(x));
+                let defaults = BTreeMap::from([
+                    ("angle_increment".to_string(), f(angle_increment)),
+                    ("range_min".into(), f(range_min)),
+                    ("range_max".into(), f(range_max)),
+                ]);
+                let meta = with_defaults(meta, Some(&defaults));
+                let msg = fg::LaserScan {
+                    timestamp: None,
+                    frame_id,
+                    pose: None,
+                    start_angle: f64::from(angle_min),
+                    end_angle: f64::from(angle_max),
+                    ranges,
+                    intensities: Vec::new(),
+                };
+                let mount = self.frames.get(&msg.frame_id).copied().unwrap_or_default();
+                readings.push(Reading::Laser(codec::laser_from_message(
+                    &msg, &meta, sensor, stamp, mount,
+                )));
+            }
+            msgs::CAMERA_INFO => {
+                let image_topic = topic
+                    .strip_suffix(ros_topics::CAMERA_INFO_SUFFIX)
+                    .unwrap_or(topic);
+                self.infos
+                    .insert(image_topic.to_string(), camera_info(data)?);
+            }
+            msgs::IMAGE => {
+                let msg = image(data)?;
+                let meta = with_defaults(meta, self.infos.get(topic));
+                if let Some(sensor) = topic.strip_prefix(topics::DEPTH_PREFIX) {
+                    let d = codec::depth_from_message(&msg, &meta, sensor, stamp)?;
+                    readings.push(Reading::Depth(d));
+                } else if let Some(sensor) = topic.strip_prefix(topics::IMAGE_PREFIX) {
+                    let i = images::intensity_from_message(&msg, &meta, sensor, stamp)?;
+                    readings.push(Reading::Intensity(i));
+                } else if let Some(sensor) = topic.strip_prefix(topics::DISPARITY_PREFIX) {
+                    let d = images::disparity_from_message(&msg, &meta, sensor, stamp)?;
+                    readings.push(Reading::Disparity(d));
+                }
+            }
+            msgs::WIFI_SCAN => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                let sensor = r.string()?;
+                let n = r.len(4 + 4 + 8)?;
+                let mut list = Vec::with_capacity(n);
+                for _ in 0..n {
+                    list.push(WifiReading {
+                        ap: r.string()?,
+                        channel: r.u32()?,
+                        rssi_dbm: r.f64()?,
+                    });
+                }
+                readings.push(Reading::Wifi(WifiScan {
+                    stamp,
+                    sensor,
+                    readings: list,
+                }));
+            }
+            msgs::LANDMARKS => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                let sensor = r.string()?;
+                let mount = Pose2::new(r.f64()?, r.f64()?, r.f64()?);
+                let n = r.len(24)?;
+                let mut detections = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let (range, bearing, id) = (r.f64()?, r.f64()?, r.i64()?);
+                    detections.push(LandmarkDetection {
+                        range,
+                        bearing,
+                        id: usize::try_from(id).ok(),
+                    });
+                }
+                readings.push(Reading::Landmarks(LandmarkDetections {
+                    stamp,
+                    sensor,
+                    mount,
+                    detections,
+                }));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaml_reads_what_rosbag2_and_rosbags_write() {
+        let text = "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n  relative_file_paths:\n    - run_0.mcap\n  topics_with_message_count:\n    - topic_metadata:\n        name: /odom\n        type: nav_msgs/msg/Odometry # comment\n        offered_qos_profiles: \"- history: 3\\n  depth: 0\"\n      message_count: 12\n    - topic_metadata:\n        name: '/it''s'\n        type: std_msgs/msg/String\n        offered_qos_profiles:\n        - history: keep_last\n          depth: 1\n      message_count: 1\n  custom_data: {}\n  files: []\n";
+        let v = yaml::parse(text).unwrap();
+        let info = v.get("rosbag2_bagfile_information").unwrap();
+        assert_eq!(info.get("version").unwrap().as_str(), Some("5"));
+        let files = info.get("relative_file_paths").unwrap().as_seq().unwrap();
+        assert_eq!(files, &[yaml::Value::Str("run_0.mcap".into())]);
+        let topics = info
+            .get("topics_with_message_count")
+            .unwrap()
+            .as_seq()
+            .unwrap();
+        assert_eq!(topics.len(), 2);
+        let m = topics[0].get("topic_metadata").unwrap();
+        assert_eq!(
+            m.get("type").unwrap().as_str(),
+            Some("nav_msgs/msg/Odometry")
+        );
+        assert_eq!(
+            m.get("offered_qos_profiles").unwrap().as_str(),
+            Some("- history: 3\n  depth: 0")
+        );
+        assert_eq!(topics[0].get("message_count").unwrap().as_str(), Some("12"));
+        let m = topics[1].get("topic_metadata").unwrap();
+        assert_eq!(m.get("name").unwrap().as_str(), Some("/it's"));
+        let q = m.get("offered_qos_profiles").unwrap().as_seq().unwrap();
+        assert_eq!(q[0].get("depth").unwrap().as_str(), Some("1"));
+        assert_eq!(info.get("files").unwrap().as_seq().unwrap().len(), 0);
+        assert!(yaml::parse("a: 1\n   b: 2\n").is_err());
+        assert!(yaml::parse("a: \"open\n").is_err());
+    }
+
+    #[test]
+    fn written_metadata_parses_back() {
+        let topics = vec![
+            crate::ros2::record::TopicStat {
+                name: "/map".into(),
+                msg_type: msgs::OCCUPANCY_GRID,
+                count: 1,
+            },
+            crate::ros2::record::TopicStat {
+                name: "/odom".into(),
+                msg_type: msgs::ODOMETRY,
+                count: 40,
+            },
+        ];
+        let text =
+            crate::ros2::record::metadata_yaml("b_0.mcap", &topics, 5_000_000, 90_000_000_000);
+        let v = yaml::parse(&text).unwrap();
+        let info = v.get("rosbag2_bagfile_information").unwrap();
+        assert_eq!(info.get("message_count").unwrap().as_str(), Some("41"));
+        let t = info
+            .get("topics_with_message_count")
+            .unwrap()
+            .as_seq()
+            .unwrap();
+        let qos = t[0]
+            .get("topic_metadata")
+            .and_then(|m| m.get("offered_qos_profiles"))
+            .and_then(yaml::Value::as_str)
+            .unwrap();
+        // The QoS string is YAML itself: /map is transient local (durability 1).
+        let q = yaml::parse(qos).unwrap();
+        assert_eq!(
+            q.as_seq().unwrap()[0].get("durability").unwrap().as_str(),
+            Some("1")
+        );
+        let q = t[1]
+            .get("topic_metadata")
+            .unwrap()
+            .get("offered_qos_profiles")
+            .unwrap();
+        let q = yaml::parse(q.as_str().unwrap()).unwrap();
+        assert_eq!(
+            q.as_seq().unwrap()[0].get("durability").unwrap().as_str(),
+            Some("2")
+        );
+        assert_eq!(
+            info.get("duration")
+                .unwrap()
+                .get("nanoseconds")
+                .unwrap()
+                .as_str(),
+            Some("89995000000")
+        );
+    }
+
+    #[test]
+    fn types_are_checked_per_topic() {
+        assert!(check_type("/odom", msgs::ODOMETRY).is_ok());
+        assert!(check_type("/scan/front", msgs::LASER_SCAN).is_ok());
+        assert!(check_type("/depth/k/camera_info", msgs::CAMERA_INFO).is_ok());
+        assert!(check_type("/depth/k", msgs::IMAGE).is_ok());
+        let e = check_type("/odom", msgs::POSE_COV_STAMPED).unwrap_err();
+        assert!(e.contains("expected \"nav_msgs/msg/Odometry\""), "{e}");
+        let e = check_type("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray").unwrap_err();
+        assert!(e.starts_with("unknown message type"), "{e}");
+        assert!(check_channel("/odom", msgs::ODOMETRY, "protobuf").is_err());
+    }
+}
