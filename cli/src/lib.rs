@@ -14,6 +14,7 @@
 
 mod dataset_cli;
 mod generate_cli;
+mod map_cli;
 mod score_cli;
 
 use anyhow::Context;
@@ -99,6 +100,11 @@ enum Command {
     Export {
         #[command(subcommand)]
         what: ExportWhat,
+    },
+    /// Maps from reality: `atrium map build LOG --reference REF -o MAP.yaml`.
+    Map {
+        #[command(subcommand)]
+        what: map_cli::MapCommand,
     },
     /// Make a world from a generator file: `atrium generate world GENERATOR.toml
     /// [--set KEY=VALUE ...] -o WORLD.toml`.
@@ -566,6 +572,7 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
         Some(Command::Score(args)) => Ok(score_cli::score_command(args)?),
         Some(Command::Sweep(args)) => sweep_command(registry, args),
         Some(Command::Generate(args)) => Ok(generate_cli::generate_command(args)?),
+        Some(Command::Map { what }) => Ok(map_cli::map_command(what)?),
         Some(Command::Bench {
             what,
             sweep_file,

@@ -59,7 +59,10 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Relation>, FormatError> {
             return Err(FormatError::field(
                 path,
                 &at,
-                format!("t1 and t2 are both {} s: a relation joins two instants", v[0]),
+                format!(
+                    "t1 and t2 are both {} s: a relation joins two instants",
+                    v[0]
+                ),
             ));
         }
         for (i, name) in [(4, "z"), (5, "roll"), (6, "pitch")] {

@@ -78,7 +78,7 @@ pub fn read_tum(path: &Path, text: &str) -> Result<Vec<Row>, FormatError> {
             v[i] = parse_num(path, n, name, s)?;
         }
         let norm = (v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]).sqrt();
-        if !(norm > 1e-6) {
+        if norm.is_nan() || norm <= 1e-6 {
             return Err(FormatError::field(
                 path,
                 format!("line {n}"),

@@ -28,12 +28,14 @@ pub mod mcl;
 pub mod mixture;
 pub mod motion;
 pub mod observation_fit;
+pub mod occupancy_mapping;
 pub mod omni_map;
 pub mod omni_mcl;
 pub mod particle_filter;
 pub mod particle_set;
 pub mod particles;
 pub mod pca;
+pub mod pose_graph;
 pub mod resampling;
 pub mod scan_match;
 pub mod shared_member;
@@ -55,9 +57,11 @@ pub use line_map::LineMap;
 pub use localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use mcl::{InitialBelief, Mcl, MclMap, MclParams};
 pub use motion::{OdometryIncrement, OdometryMotionModel};
+pub use occupancy_mapping::{MappingParams, OccupancyMapper};
 pub use particle_filter::{FilterCore, ParticleFilter};
 pub use particle_set::ParticleSet;
 pub use particles::{ReadingCounts, ReadingTally};
+pub use pose_graph::{PoseGraph, PoseGraphError};
 pub use resampling::{
     low_variance_indices, low_variance_indices_with_offset, Injection, ResamplePolicy,
 };

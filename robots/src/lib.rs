@@ -6,6 +6,7 @@
 pub mod depth_camera;
 pub mod diff_drive;
 pub mod error;
+pub mod generic;
 pub mod images;
 pub mod landmark_detector;
 pub mod model;
@@ -19,6 +20,7 @@ pub mod wifi;
 pub use depth_camera::DepthCameraSpec;
 pub use diff_drive::DiffDrive;
 pub use error::RobotError;
+pub use generic::generic_robot_urdf;
 pub use images::{DisparityImage, IntensityImage};
 pub use landmark_detector::{Association, LandmarkDetectorSpec};
 pub use model::{

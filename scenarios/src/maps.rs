@@ -161,11 +161,13 @@ impl SharedMaps {
             .clone()
     }
 
-    /// The vector map (wall faces and pillars as segments; glass per `[map] include_glass`).
+    /// The vector map (wall faces and pillars as segments; glass per `[map] include_glass`;
+    /// for a ROS map, the faces traced along its occupied cells).
     pub fn vector_map(&mut self, scenario: &Scenario) -> &atrium_worlds::VectorMap {
-        let v = match &self.vector {
-            Some(v) => v.clone(),
-            None => {
+        let v = match (&self.vector, &scenario.grid_map) {
+            (Some(v), _) => v.clone(),
+            (None, Some(g)) => g.vector.clone(),
+            (None, None) => {
                 let glass = scenario.map.include_glass;
                 let key = format!("vector_map\n{}\n{glass}", self.world_key(scenario));
                 let built = crate::map_cache::shared(key, || {
@@ -189,6 +191,10 @@ impl SharedMaps {
     fn shared_grid(&mut self, scenario: &Scenario) -> Arc<OccupancyGrid> {
         if let Some(g) = &self.grid {
             return g.clone();
+        }
+        // A ROS map is the grid, as it is.
+        if let Some(g) = &scenario.grid_map {
+            return g.grid.clone();
         }
         let (res, glass) = (scenario.map.resolution, scenario.map.include_glass);
         let key = format!(

@@ -146,15 +146,21 @@ pub fn write_run(
         written.push(p);
         Ok(())
     };
-    put(
-        "ground_truth.tum".into(),
-        atrium_formats::tum::to_tum(&run.ground_truth).into_bytes(),
-    )?;
+    // Stamped in the recording's own time, so other tools line them up with the log.
+    let offset = run.time_offset_s();
+    let tum = |poses: &[(f64, atrium_robots::Pose2)]| {
+        let shifted: Vec<(f64, atrium_robots::Pose2)> =
+            poses.iter().map(|(t, p)| (t + offset, *p)).collect();
+        atrium_formats::tum::to_tum(&shifted).into_bytes()
+    };
+    let truth_name = if run.log.is_some() {
+        "reference.tum"
+    } else {
+        "ground_truth.tum"
+    };
+    put(truth_name.into(), tum(&run.ground_truth))?;
     for l in &run.localizers {
-        put(
-            format!("{}.tum", l.name),
-            atrium_formats::tum::to_tum(&l.trajectory).into_bytes(),
-        )?;
+        put(format!("{}.tum", l.name), tum(&l.trajectory))?;
         put(
             format!("trajectory_{}.svg", l.name),
             crate::plot::svg(world, run, l).into_bytes(),

@@ -336,6 +336,11 @@ impl LocalizerRegistry {
         options: RunOptions,
     ) -> Result<RunResult, ScenarioError> {
         let seed = options.seed.unwrap_or(scenario.seed);
+        if let Some(log) = scenario.log.as_deref() {
+            let mut stream = crate::log::LogStream::new(log);
+            let localizers = self.build_all(scenario, seed)?;
+            return run_localizers(scenario, seed, &mut stream, &[], localizers, options);
+        }
         // The simulation first: a start inside a wall is reported before any training run.
         let mut stream = SimStream::new(scenario, seed)?;
         let localizers = self.build_all(scenario, seed)?;

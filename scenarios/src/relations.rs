@@ -124,8 +124,12 @@ mod tests {
     #[test]
     fn stamps_outside_the_trajectory_are_skipped() {
         let traj = [(0.0, Pose2::default()), (1.0, Pose2::new(1.0, 0.0, 0.0))];
-        let s = score(&traj, &[rel(0.0, 1.0, 1.0, 0.0, 0.0), rel(0.5, 3.0, 1.0, 0.0, 0.0)], 2.0)
-            .unwrap();
+        let s = score(
+            &traj,
+            &[rel(0.0, 1.0, 1.0, 0.0, 0.0), rel(0.5, 3.0, 1.0, 0.0, 0.0)],
+            2.0,
+        )
+        .unwrap();
         assert_eq!((s.count, s.skipped), (1, 1));
         assert!(score(&traj, &[rel(5.0, 6.0, 0.0, 0.0, 0.0)], 2.0).is_none());
     }

@@ -44,6 +44,7 @@ pub fn to_json(r: &RunResult) -> Value {
                 })).collect::<Vec<_>>(),
                 "expectations": l.expectations,
                 "slam": l.slam.as_ref().map(crate::slam::to_json),
+                "relations": l.relations,
             })
         })
         .collect();
@@ -57,6 +58,7 @@ pub fn to_json(r: &RunResult) -> Value {
         "distance_m": r.distance_m,
         "route_completed": r.route_completed,
         "passed": r.passed(),
+        "log": r.log,
         "localizers": localizers,
         "timing": {
             "wall_s": r.timing.wall_s,
@@ -78,24 +80,65 @@ fn opt(v: Option<f64>, unit: &str) -> String {
 /// The human-readable report.
 pub fn to_text(r: &RunResult) -> String {
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "scenario {} (seed {}): {} in {}, {:.1} s simulated, {:.1} m driven{}",
-        r.scenario,
-        r.seed,
-        r.robot,
-        r.world,
-        r.sim_time_s,
-        r.distance_m,
-        if r.route_completed {
-            ""
-        } else {
-            " (route NOT completed)"
+    match &r.log {
+        Some(log) => {
+            let _ = writeln!(
+                s,
+                "scenario {} (seed {}): real log {} ({} scans on {}, odometry {}), {:.1} s, \
+                 {:.1} m along the reference",
+                r.scenario,
+                r.seed,
+                log.path,
+                log.scans,
+                log.scan_topic,
+                log.odom_topic,
+                r.sim_time_s,
+                r.distance_m,
+            );
+            let _ = writeln!(
+                s,
+                "scored against {} at {} instants; {} scans not covered by it are not scored",
+                log.reference, log.scored_instants, log.unscored_scans
+            );
+            if let Some(a) = &log.reference_accuracy {
+                let _ = writeln!(
+                    s,
+                    "reference accuracy {:.3} m ({}): smaller errors are shown as <{:.3}",
+                    a.position_m, a.source, a.position_m
+                );
+            }
         }
-    );
+        None => {
+            let _ = writeln!(
+                s,
+                "scenario {} (seed {}): {} in {}, {:.1} s simulated, {:.1} m driven{}",
+                r.scenario,
+                r.seed,
+                r.robot,
+                r.world,
+                r.sim_time_s,
+                r.distance_m,
+                if r.route_completed {
+                    ""
+                } else {
+                    " (route NOT completed)"
+                }
+            );
+        }
+    }
     if !r.description.is_empty() {
         let _ = writeln!(s, "{}", r.description);
     }
+    // On a real log, no figure claims more precision than the reference has.
+    let floor = r
+        .log
+        .as_ref()
+        .and_then(|l| l.reference_accuracy.as_ref())
+        .map(|a| a.position_m);
+    let m3 = |v: f64| match floor {
+        Some(f) if v < f => format!("<{f:.3}"),
+        _ => format!("{v:.3}"),
+    };
     let _ = writeln!(s, "\nposition error (m)");
     let _ = writeln!(
         s,
@@ -107,16 +150,35 @@ pub fn to_text(r: &RunResult) -> String {
             let p = &m.position_error;
             let _ = writeln!(
                 s,
-                "{:<18} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10}",
+                "{:<18} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>10}",
                 l.name,
-                p.min,
-                p.median,
-                p.rmse,
-                p.p95,
-                p.max,
-                m.final_position_error,
+                m3(p.min),
+                m3(p.median),
+                m3(p.rmse),
+                m3(p.p95),
+                m3(p.max),
+                m3(m.final_position_error),
                 opt(m.converged_after_s, " s")
             );
+        }
+    }
+    if r.localizers.iter().any(|l| l.relations.is_some()) {
+        let _ = writeln!(
+            s,
+            "\nrelations error [Kümmerle 2009] (mean ± std)\n{:<18} {:>20} {:>20} {:>9}",
+            "localizer", "translation (m)", "rotation (deg)", "relations"
+        );
+        for l in &r.localizers {
+            if let Some(x) = &l.relations {
+                let _ = writeln!(
+                    s,
+                    "{:<18} {:>20} {:>20} {:>9}",
+                    l.name,
+                    format!("{:.3} ± {:.3}", x.trans_mean_m, x.trans_std_m),
+                    format!("{:.2} ± {:.2}", x.rot_mean_deg, x.rot_std_deg),
+                    x.count
+                );
+            }
         }
     }
     let mut regions: Vec<&String> = r

@@ -52,6 +52,8 @@ pub struct LocalizerRun {
     /// `Capabilities::log`); `--out` writes it to `log_<localizer>.txt`.
     #[serde(skip)]
     pub log: Option<String>,
+    /// On a real log with benchmark relations: the relations metric of [Kümmerle 2009].
+    pub relations: Option<crate::relations::RelationsScore>,
 }
 
 /// Wall-clock figures, kept apart from the results because they vary between runs.
@@ -84,9 +86,36 @@ pub struct RunResult {
     pub regions: Vec<Option<(String, String)>>,
     pub localizers: Vec<LocalizerRun>,
     pub timing: Timing,
+    /// What a run on a real log scored against (`None` for a simulated run).
+    pub log: Option<LogRunInfo>,
+}
+
+/// What a run on a real log was scored against, for reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct LogRunInfo {
+    pub path: String,
+    pub scan_topic: String,
+    pub odom_topic: String,
+    /// The log time of the run's t = 0, s: add it to a run time to get the log's stamp.
+    pub t0: f64,
+    pub scans: usize,
+    pub reference: String,
+    /// Instants scored against the reference.
+    pub scored_instants: usize,
+    /// Scans the reference does not cover, which are not scored.
+    pub unscored_scans: usize,
+    pub reference_accuracy: Option<crate::log::ReferenceAccuracy>,
+    pub laser_mount: [f64; 3],
+    pub laser_mount_source: String,
+    pub relations: Option<String>,
 }
 
 impl RunResult {
+    /// The offset from the run's clock to the recording's own stamps (0 for a simulated run).
+    pub fn time_offset_s(&self) -> f64 {
+        self.log.as_ref().map_or(0.0, |l| l.t0)
+    }
+
     pub fn passed(&self) -> bool {
         self.localizers.iter().all(|l| l.passed)
     }
@@ -492,6 +521,7 @@ pub fn run_localizers(
             slam: crate::slam::SlamRun::of(localizers[i].as_mut(), scenario),
             node_events: crate::node_route::node_events(localizers[i].as_mut()),
             log: localizers[i].capabilities().and_then(|c| c.log()),
+            relations: None,
         });
     }
     for i in 0..runs.len() {
@@ -536,6 +566,28 @@ pub fn run_localizers(
         runs[i].expectations = results;
     }
 
+    let log = scenario.log.as_deref().map(|l| {
+        if let Some(rels) = &l.relations {
+            for r in runs.iter_mut() {
+                r.relations =
+                    crate::relations::score(&r.trajectory, rels, crate::log::REFERENCE_MAX_GAP_S);
+            }
+        }
+        LogRunInfo {
+            path: l.path.display().to_string(),
+            scan_topic: l.scan_topic.clone(),
+            odom_topic: l.odom_topic.clone(),
+            t0: l.t0,
+            scans: l.scans.len(),
+            reference: l.reference_source.clone(),
+            scored_instants: ground_truth.len(),
+            unscored_scans: l.unscored_scans,
+            reference_accuracy: l.reference_accuracy.clone(),
+            laser_mount: [l.mount.x, l.mount.y, l.mount.theta],
+            laser_mount_source: l.mount_source.clone(),
+            relations: l.relations_file.as_ref().map(|p| p.display().to_string()),
+        }
+    });
     let wall_s = started.elapsed().as_secs_f64();
     let sim_time_s = summary.sim_time_s;
     Ok(RunResult {
@@ -558,6 +610,7 @@ pub fn run_localizers(
             localizers_s: runs.iter().map(|r| (r.name.clone(), r.cpu_s)).collect(),
         },
         localizers: runs,
+        log,
     })
 }
 

@@ -15,21 +15,33 @@ struct ScenarioFile {
     name: String,
     #[serde(default)]
     description: String,
-    world: PathBuf,
+    /// The world file (or a generator file); `map` may name a ROS map instead.
+    #[serde(default)]
+    world: Option<PathBuf>,
     /// `[world_params]`: parameters set on the world's generator file before it generates
     /// (see [`load_world`]).
     #[serde(default)]
     world_params: toml::Table,
-    robot: PathBuf,
+    /// The robot's URDF; a log scenario without one drives the generic robot with the log's
+    /// laser mount (`atrium_robots::generic`).
+    #[serde(default)]
+    robot: Option<PathBuf>,
     #[serde(default)]
     seed: u64,
-    duration_s: f64,
+    /// Required for a simulated run; for a log, keeps only its first seconds.
+    #[serde(default)]
+    duration_s: Option<f64>,
     #[serde(default = "default_physics_hz")]
     physics_hz: f64,
     #[serde(default = "default_eval_hz")]
     eval_hz: f64,
-    start: StartFile,
-    route: RouteFile,
+    #[serde(default)]
+    start: Option<StartFile>,
+    #[serde(default)]
+    route: Option<RouteFile>,
+    /// `[log]`: a real robot's recording instead of a simulated drive (see `crate::log`).
+    #[serde(default)]
+    log: Option<crate::log::LogTable>,
     #[serde(default)]
     controller: Option<toml::Table>,
     /// `[people]`: pedestrians (`density` per 100 m² of free floor, `speed`, `radius`,
@@ -49,8 +61,10 @@ struct ScenarioFile {
     /// `[wifi]`: overrides of the robot's WiFi scanner (or one with defaults if it has none).
     #[serde(default)]
     wifi: Option<toml::Table>,
+    /// `[map]` settings of the map exported from the world, or `map = "X.yaml"`: a ROS map
+    /// in place of the world (see `crate::grid_map`).
     #[serde(default)]
-    map: MapSettings,
+    map: Option<toml::Value>,
     #[serde(default)]
     initial_belief: Option<BeliefFile>,
     #[serde(default)]
@@ -87,7 +101,7 @@ struct StartFile {
     pose: [f64; 3],
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RouteFile {
     #[serde(default)]
@@ -268,6 +282,10 @@ pub struct Scenario {
     pub appearance_experiment: Option<toml::Table>,
     /// The scenario file's text, kept for dataset metadata.
     pub text: String,
+    /// The real log this scenario runs on instead of a simulated drive (`[log]`).
+    pub log: Option<std::sync::Arc<crate::log::RealLog>>,
+    /// The ROS map given as `map = "X.yaml"`, which the world was made from.
+    pub grid_map: Option<std::sync::Arc<crate::grid_map::GridMap>>,
     /// Every file this scenario was read from: the scenario file, its world, its robot and
     /// the robot's sensor file. A sweep hashes them (with the files its localizers name), so
     /// results are never mixed across changed inputs.
@@ -561,6 +579,138 @@ fn load_world(
     })
 }
 
+/// Where a scenario runs: its world (from a world file, a generator file or a ROS map), the
+/// file it came from, and the map settings of the localizers.
+struct Places {
+    world_file: PathBuf,
+    world: World,
+    grid_map: Option<crate::grid_map::GridMap>,
+    map_settings: MapSettings,
+}
+
+/// The world and map of a scenario: `world = "..."` (with `[map]` settings of the map the
+/// localizers get from it), or `map = "X.yaml"`, a ROS map that is both.
+fn resolve_world(file: &Path, dir: &Path, raw: &ScenarioFile) -> Result<Places, ScenarioError> {
+    let settings = |v: &toml::Value| -> Result<MapSettings, ScenarioError> {
+        v.clone().try_into().map_err(|e: toml::de::Error| {
+            ScenarioError::field(file, "map", e.message().to_string())
+        })
+    };
+    match (&raw.world, &raw.map) {
+        (Some(_), Some(toml::Value::String(_))) => Err(ScenarioError::field(
+            file,
+            "map",
+            "give either world = \"...\" or map = \"X.yaml\", not both: a ROS map is the world",
+        )),
+        (None, Some(toml::Value::String(m))) => {
+            if !raw.world_params.is_empty() {
+                return Err(ScenarioError::field(
+                    file,
+                    "world_params",
+                    "a ROS map has no generator parameters",
+                ));
+            }
+            let yaml = dir.join(m);
+            let (grid_map, world) = crate::grid_map::GridMap::load(file, &yaml)?;
+            let map_settings = MapSettings {
+                resolution: grid_map.grid.resolution,
+                include_glass: false,
+            };
+            Ok(Places {
+                world_file: yaml,
+                world,
+                grid_map: Some(grid_map),
+                map_settings,
+            })
+        }
+        (Some(w), map) => {
+            let world_file = dir.join(w);
+            // `world` names an explicit world file or a generator file (`generator = ...`),
+            // whose world is generated and then validated by the same loader.
+            let world = load_world(file, &world_file, &raw.world_params)?;
+            let map_settings = match map {
+                Some(v) => settings(v)?,
+                None => MapSettings::default(),
+            };
+            Ok(Places {
+                world_file,
+                world,
+                grid_map: None,
+                map_settings,
+            })
+        }
+        (None, _) => Err(ScenarioError::field(
+            file,
+            "world",
+            "missing: name a world file (world = \"...\") or a ROS map (map = \"X.yaml\")",
+        )),
+    }
+}
+
+/// The robot: its URDF, or for a log scenario without one the generic robot with the log's
+/// laser mount (its file is then the log's).
+fn resolve_robot(
+    file: &Path,
+    dir: &Path,
+    robot: Option<&Path>,
+    log: Option<&crate::log::RealLog>,
+) -> Result<(PathBuf, RobotModel), ScenarioError> {
+    match (robot, log) {
+        (Some(r), _) => {
+            let robot_file = dir.join(r);
+            Ok((robot_file.clone(), crate::load_cache::robot(&robot_file)?))
+        }
+        (None, Some(l)) => {
+            let urdf = atrium_robots::generic_robot_urdf("log_robot", l.laser_mount_3());
+            let model = RobotModel::from_urdf_str(&urdf, "the generic robot of a log")?;
+            Ok((l.path.clone(), model))
+        }
+        (None, None) => Err(ScenarioError::field(
+            file,
+            "robot",
+            "missing: name the robot's URDF file",
+        )),
+    }
+}
+
+/// The start pose and the route: both written for a simulated run; for a log, no route (the
+/// log holds the drive) and the start from `[start]` if given, else the reference's pose at
+/// the log's first scan.
+fn resolve_drive(
+    file: &Path,
+    raw: &ScenarioFile,
+    log: Option<&crate::log::RealLog>,
+) -> Result<([f64; 3], RouteFile), ScenarioError> {
+    match log {
+        Some(l) => {
+            if raw.route.is_some() {
+                return Err(ScenarioError::field(
+                    file,
+                    "route",
+                    "a log scenario drives what its log recorded: [log] replaces [route]",
+                ));
+            }
+            let start = match &raw.start {
+                Some(s) => s.pose,
+                None => {
+                    let p = l.start_pose();
+                    [p.x, p.y, p.theta]
+                }
+            };
+            Ok((start, RouteFile::default()))
+        }
+        None => {
+            let start = raw.start.as_ref().ok_or_else(|| {
+                ScenarioError::field(file, "start", "missing: [start] pose = [x, y, theta]")
+            })?;
+            let route = raw.route.clone().ok_or_else(|| {
+                ScenarioError::field(file, "route", "missing: [route] waypoints = [[x, y], ...]")
+            })?;
+            Ok((start.pose, route))
+        }
+    }
+}
+
 impl Scenario {
     /// Adds a localizer to the scenario (a user's own beside the bundled ones): `params` are
     /// the keys of its `[[localizers]]` table other than `name` and `kind`, and `expect`
@@ -652,25 +802,46 @@ impl Scenario {
             msg: e.to_string(),
         })?;
         let dir = file.parent().unwrap_or(Path::new("."));
-        let world_file = dir.join(&raw.world);
-        let robot_file = dir.join(&raw.robot);
-        // `world` names an explicit world file or a generator file (`generator = ...`), whose
-        // world is generated and then validated by the same loader.
-        let mut world = load_world(file, &world_file, &raw.world_params)?;
-        add_clutter(file, &mut world, &raw.clutter)?;
-        let robot = crate::load_cache::robot(&robot_file)?;
-
-        check_positive(file, "duration_s", raw.duration_s)?;
-        if raw.duration_s > MAX_DURATION_S {
-            return Err(ScenarioError::field(
-                file,
-                "duration_s",
-                format!(
-                    "{} s is longer than the limit of {MAX_DURATION_S} s (a day of simulated time)",
-                    raw.duration_s
-                ),
-            ));
+        if let Some(d) = raw.duration_s {
+            check_positive(file, "duration_s", d)?;
+            if d > MAX_DURATION_S {
+                return Err(ScenarioError::field(
+                    file,
+                    "duration_s",
+                    format!(
+                        "{d} s is longer than the limit of {MAX_DURATION_S} s (a day of simulated time)"
+                    ),
+                ));
+            }
         }
+        let log = match &raw.log {
+            Some(table) => Some(std::sync::Arc::new(crate::log::RealLog::load(
+                file,
+                table,
+                raw.duration_s,
+            )?)),
+            None => None,
+        };
+        let Places {
+            world_file,
+            mut world,
+            grid_map,
+            map_settings,
+        } = resolve_world(file, dir, &raw)?;
+        add_clutter(file, &mut world, &raw.clutter)?;
+        let (robot_file, robot) = resolve_robot(file, dir, raw.robot.as_deref(), log.as_deref())?;
+        let duration_s = match (&log, raw.duration_s) {
+            (Some(l), _) => l.duration_s(),
+            (None, Some(d)) => d,
+            (None, None) => {
+                return Err(ScenarioError::field(
+                    file,
+                    "duration_s",
+                    "missing: a simulated run needs its length in seconds",
+                ))
+            }
+        };
+        let (raw_start, route) = resolve_drive(file, &raw, log.as_deref())?;
         check_positive(file, "eval_hz", raw.eval_hz)?;
         if !(raw.physics_hz.is_finite() && (50.0..=5000.0).contains(&raw.physics_hz)) {
             return Err(ScenarioError::field(
@@ -679,52 +850,47 @@ impl Scenario {
                 format!("must be between 50 and 5000 Hz, got {}", raw.physics_hz),
             ));
         }
-        check_finite(file, "start.pose", &raw.start.pose)?;
-        check_inside(
-            file,
-            "start.pose",
-            &world,
-            [raw.start.pose[0], raw.start.pose[1]],
-        )?;
+        check_finite(file, "start.pose", &raw_start)?;
+        check_inside(file, "start.pose", &world, [raw_start[0], raw_start[1]])?;
         let start = Pose2::new(
-            raw.start.pose[0],
-            raw.start.pose[1],
-            heading(file, "start.pose", raw.start.pose[2])?,
+            raw_start[0],
+            raw_start[1],
+            heading(file, "start.pose", raw_start[2])?,
         );
         let node_route = crate::node_route::parse_route(
             file,
             &world,
-            raw.route.controller.as_deref(),
-            &raw.route.waypoints,
-            &raw.route.nodes,
-            raw.route.gamma_theta,
-            raw.route.gamma_d,
+            route.controller.as_deref(),
+            &route.waypoints,
+            &route.nodes,
+            route.gamma_theta,
+            route.gamma_d,
         )?;
-        if node_route.is_none() && raw.route.waypoints.is_empty() {
+        if log.is_none() && node_route.is_none() && route.waypoints.is_empty() {
             return Err(ScenarioError::field(
                 file,
                 "route.waypoints",
                 "needs at least one waypoint",
             ));
         }
-        if !(raw.route.settle_s.is_finite() && raw.route.settle_s >= 0.0) {
+        if !(route.settle_s.is_finite() && route.settle_s >= 0.0) {
             return Err(ScenarioError::field(file, "route.settle_s", "must be >= 0"));
         }
-        if !(raw.route.jitter.is_finite() && raw.route.jitter >= 0.0) {
+        if !(route.jitter.is_finite() && route.jitter >= 0.0) {
             return Err(ScenarioError::field(
                 file,
                 "route.jitter",
                 "must be >= 0 (metres)",
             ));
         }
-        if raw.route.jitter > 0.0 && node_route.is_some() {
+        if route.jitter > 0.0 && node_route.is_some() {
             return Err(ScenarioError::field(
                 file,
                 "route.jitter",
                 "applies to waypoint routes only, not to node routes",
             ));
         }
-        for (i, w) in raw.route.waypoints.iter().enumerate() {
+        for (i, w) in route.waypoints.iter().enumerate() {
             let field = format!("route.waypoints[{i}]");
             check_finite(file, &field, w)?;
             check_inside(file, &field, &world, *w)?;
@@ -806,6 +972,12 @@ impl Scenario {
             RobotSensors::default()
         };
         let mut input_files = vec![file.to_path_buf(), world_file.clone(), robot_file.clone()];
+        if let Some(g) = &grid_map {
+            input_files.push(g.image.clone());
+        }
+        if let Some(l) = &log {
+            input_files.extend(l.input_files());
+        }
         if sensor_file.exists() {
             input_files.push(sensor_file.clone());
         }
@@ -821,7 +993,12 @@ impl Scenario {
                 Some((key, rest)) => ScenarioError::field(file, format!("odometry.{key}"), rest),
                 None => ScenarioError::field(file, "odometry", msg),
             })?;
-        let mut lasers = robot_sensors.lasers.clone();
+        // A log's laser is the one that recorded its scans; `[sensors.<its name>]` may still
+        // set its noise model (for a twin).
+        let mut lasers = match &log {
+            Some(l) => vec![l.laser.clone()],
+            None => robot_sensors.lasers.clone(),
+        };
         let mut camera_tables = Vec::new();
         if let Some(sensors) = &raw.sensors {
             for (name, value) in sensors {
@@ -864,7 +1041,8 @@ impl Scenario {
         for (i, l) in lasers.iter().enumerate() {
             l.validate()
                 .map_err(|msg| ScenarioError::field(file, format!("sensors.{}", l.name), msg))?;
-            if robot.mount(&l.mount).is_none() {
+            // A log's scans carry their mount from the log itself.
+            if log.is_none() && robot.mount(&l.mount).is_none() {
                 return Err(ScenarioError::field(
                     file,
                     format!("sensors.{}.mount", lasers[i].name),
@@ -942,21 +1120,26 @@ impl Scenario {
             &cameras,
         )?;
 
-        if !(raw.map.resolution.is_finite()
-            && raw.map.resolution >= 0.01
-            && raw.map.resolution <= 1.0)
-        {
-            return Err(ScenarioError::field(
-                file,
-                "map.resolution",
-                format!("must be between 0.01 and 1 m, got {}", raw.map.resolution),
-            ));
+        if grid_map.is_none() {
+            if !(map_settings.resolution.is_finite()
+                && map_settings.resolution >= 0.01
+                && map_settings.resolution <= 1.0)
+            {
+                return Err(ScenarioError::field(
+                    file,
+                    "map.resolution",
+                    format!(
+                        "must be between 0.01 and 1 m, got {}",
+                        map_settings.resolution
+                    ),
+                ));
+            }
+            // A world too large for its map at this resolution is refused now, with the size
+            // it would need, rather than handing the localizers an empty grid.
+            world
+                .grid_size(map_settings.resolution)
+                .map_err(|e| ScenarioError::field(file, "map.resolution", e.to_string()))?;
         }
-        // A world too large for its map at this resolution is refused now, with the size it
-        // would need, rather than handing the localizers an empty grid.
-        world
-            .grid_size(raw.map.resolution)
-            .map_err(|e| ScenarioError::field(file, "map.resolution", e.to_string()))?;
 
         let initial_belief = match raw.initial_belief {
             None => InitialBelief::Tracking {
@@ -1031,14 +1214,11 @@ impl Scenario {
                 EventFile::Kidnap { at_s, to } => {
                     check_finite(file, &format!("events[{i}].to"), to)?;
                     check_inside(file, &format!("events[{i}].to"), &world, [to[0], to[1]])?;
-                    if !(at_s.is_finite() && *at_s >= 0.0 && *at_s < raw.duration_s) {
+                    if !(at_s.is_finite() && *at_s >= 0.0 && *at_s < duration_s) {
                         return Err(ScenarioError::field(
                             file,
                             format!("events[{i}].at_s"),
-                            format!(
-                                "must lie within the run (0..{} s), got {at_s}",
-                                raw.duration_s
-                            ),
+                            format!("must lie within the run (0..{duration_s} s), got {at_s}"),
                         ));
                     }
                     if !world.is_free([to[0], to[1]], 0.3) {
@@ -1135,16 +1315,16 @@ impl Scenario {
             world_params: raw.world_params,
             robot,
             seed: raw.seed,
-            duration_s: raw.duration_s,
+            duration_s,
             physics_hz: raw.physics_hz,
             eval_hz: raw.eval_hz,
             start,
             waypoints: match &node_route {
                 Some(r) => r.nodes.clone(),
-                None => raw.route.waypoints,
+                None => route.waypoints,
             },
-            settle_s: raw.route.settle_s,
-            route_jitter: raw.route.jitter,
+            settle_s: route.settle_s,
+            route_jitter: route.jitter,
             controller,
             people,
             odometry,
@@ -1153,7 +1333,7 @@ impl Scenario {
             cameras,
             landmark_detectors,
             wifi,
-            map: raw.map,
+            map: map_settings,
             initial_belief,
             events,
             metrics: raw.metrics,
@@ -1164,6 +1344,8 @@ impl Scenario {
             appearance_experiment: raw.appearance_experiment,
             text: text.to_string(),
             input_files,
+            log,
+            grid_map: grid_map.map(std::sync::Arc::new),
         };
         Ok(scenario)
     }

@@ -6,6 +6,7 @@ pub mod error;
 pub mod furniture;
 pub mod generate;
 pub mod geometry;
+pub mod grid_world;
 pub mod lighting;
 pub mod loader;
 pub mod map;
@@ -17,6 +18,7 @@ pub use furniture::FurnitureBox;
 pub use generate::{
     load_world_or_generator, world_from_text, GeneratorFile, GeneratorParams, GeneratorRegistry,
 };
+pub use grid_world::{vector_map_from_grid, world_from_grid};
 pub use loader::{MAX_COORDINATE_M, MAX_POLYGON_POINTS, MIN_SIZE_M};
 pub use map::{Cell, GridSize, OccupancyGrid, Segment, VectorMap};
 pub use wifi::{AccessPoint, WifiEnvironment};

@@ -399,12 +399,14 @@ impl<'a> Records<'a> {
                     })?;
                 Cow::Owned(out)
             }
-            other => return Err(self.err(
-                &place,
-                format!(
+            other => {
+                return Err(self.err(
+                    &place,
+                    format!(
                     "uses compression {other:?}; only zstd, lz4 and uncompressed chunks are read"
                 ),
-            )),
+                ))
+            }
         };
         if records.len() as u64 != size {
             let got = if records.len() as u64 > size {

@@ -25,7 +25,7 @@ use atrium_localization::{Estimate, Localizer, LocalizerError, OdometryDelta};
 use atrium_robots::Reading;
 use atrium_scenarios::error::ScenarioError;
 use atrium_scenarios::report;
-use atrium_scenarios::runner::{RunResult, Tick};
+use atrium_scenarios::runner::{ReadingStream, RunResult, StreamSummary, Tick};
 use atrium_scenarios::scenario::{LocalizerSpec, Scenario};
 use atrium_scenarios::{BuildContext, LocalizerRegistry};
 use serde::Serialize;
@@ -343,10 +343,10 @@ fn coverage(est: &Estimates, instants: &[f64]) -> (Coverage, Vec<String>) {
 pub fn score(
     recording: &Path,
     estimates: &Path,
-    options: ScoreOptions,
+    mut options: ScoreOptions,
 ) -> Result<Scored, ScenarioError> {
     let est = Arc::new(Estimates::read(estimates, options.topic.as_deref())?);
-    let name = match options.name {
+    let name = match options.name.take() {
         Some(n) if valid_name(&n) => n,
         Some(n) => {
             return Err(ScenarioError::field(
@@ -357,6 +357,9 @@ pub fn score(
         }
         None => est.default_name(),
     };
+    if recording.extension().is_some_and(|e| e == "toml") {
+        return score_on_log(recording, estimates, est, name, options);
+    }
     let rec = Recording::open(recording)?;
     let mut scenario = rec.scenario(options.scenario.as_deref())?;
     // Fails fast on stamps from another clock, before the replay; checked again below on
@@ -418,6 +421,110 @@ pub fn score(
     Ok(Scored {
         run: replayed.run,
         scenario: replayed.scenario,
+        estimates: est,
+        name,
+        coverage,
+        warnings,
+    })
+}
+
+/// A stream that tells `on_tick` of every instant before the localizers see it.
+struct Hooked<'a, 'b> {
+    inner: &'a mut dyn ReadingStream,
+    on_tick: &'b mut dyn FnMut(&Tick),
+}
+
+impl ReadingStream for Hooked<'_, '_> {
+    fn next(&mut self, readings: &mut Vec<Reading>) -> Result<Option<Tick>, ScenarioError> {
+        let tick = self.inner.next(readings)?;
+        if let Some(t) = &tick {
+            (self.on_tick)(t);
+        }
+        Ok(tick)
+    }
+    fn summary(&self) -> StreamSummary {
+        self.inner.summary()
+    }
+}
+
+/// Scores estimates against a log scenario's reference (`recording` is the scenario file):
+/// the estimates are stamped in the log's own time.
+fn score_on_log(
+    scenario_file: &Path,
+    estimates: &Path,
+    est: Arc<Estimates>,
+    name: String,
+    options: ScoreOptions,
+) -> Result<Scored, ScenarioError> {
+    if options.scenario.is_some() {
+        return Err(ScenarioError::field(
+            scenario_file,
+            "--scenario",
+            "the log scenario is the scenario: give no --scenario with it",
+        ));
+    }
+    let mut scenario = Scenario::load(scenario_file)?;
+    let Some(log) = scenario.log.clone() else {
+        return Err(ScenarioError::field(
+            scenario_file,
+            "log",
+            "atrium score takes a recording or a log scenario (a scenario with [log]); this \
+             scenario simulates its run: record it first (atrium record)",
+        ));
+    };
+    let span = [log.t0, log.t0 + log.duration_s()];
+    check_clock(estimates, est.span(), span)?;
+    let mut warnings = keep_own_expectations(&mut scenario, &name);
+    scenario.localizers = vec![LocalizerSpec {
+        name: name.clone(),
+        kind: KIND.into(),
+        params: toml::Table::new(),
+    }];
+    let clock = Clock::default();
+    let mut registry = LocalizerRegistry::empty();
+    {
+        let (est, clock) = (est.clone(), clock.clone());
+        registry
+            .register(KIND, move |ctx: &mut BuildContext| {
+                Ok(Box::new(ForeignTrajectory {
+                    name: ctx.spec.name.clone(),
+                    estimates: est.clone(),
+                    clock: clock.clone(),
+                }) as Box<dyn Localizer>)
+            })
+            .map_err(|e| ScenarioError::field(estimates, "kind", e.to_string()))?;
+    }
+    let t0 = log.t0;
+    let mut on_tick = |tick: &Tick| clock.set(tick.t + t0);
+    let mut inner = atrium_scenarios::log::LogStream::new(&log);
+    let mut stream = Hooked {
+        inner: &mut inner,
+        on_tick: &mut on_tick,
+    };
+    let run = registry.run_stream(
+        &scenario,
+        scenario.seed,
+        &mut stream,
+        &[],
+        atrium_scenarios::RunOptions {
+            seed: None,
+            progress: options.progress,
+            observer: None,
+        },
+    )?;
+    let instants: Vec<f64> = run.ground_truth.iter().map(|(t, _)| *t + t0).collect();
+    if instants.is_empty() {
+        return Err(ScenarioError::field(
+            scenario_file,
+            "log.reference",
+            "covers no instant of the log: there is nothing to score against",
+        ));
+    }
+    let (coverage, more) = coverage(&est, &instants);
+    warnings.extend(more);
+    Ok(Scored {
+        run,
+        scenario,
         estimates: est,
         name,
         coverage,
