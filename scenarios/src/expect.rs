@@ -61,7 +61,12 @@ pub struct MetricSource<'a> {
     pub metrics: &'a LocalizerMetrics,
     /// Recovery time per kidnapping (None: never recovered).
     pub recoveries: &'a [Option<f64>],
+    /// On a real log with benchmark relations: the localizer's relations error.
+    pub relations: Option<&'a crate::relations::RelationsScore>,
 }
+
+/// The relations figures an expectation may bound (`relations_trans_mean_m_max = 0.3`).
+const RELATIONS_STATS: [&str; 4] = ["trans_mean_m", "trans_std_m", "rot_mean_deg", "rot_std_deg"];
 
 fn stat_suffix(key: &str) -> Option<(&str, Bound)> {
     if let Some(s) = key.strip_suffix("_max") {
@@ -95,6 +100,16 @@ fn check_path(path: &str, scenario: &Scenario, field: &str) -> Result<(), Scenar
         ["position_error" | "heading_error" | "after_convergence", stat] => STATS.contains(stat),
         ["final_position_error" | "converged_after_s" | "recovered_after_s" | "mean_nees_xy"] => {
             true
+        }
+        ["relations", stat] => {
+            if !scenario.log.as_ref().is_some_and(|l| l.relations.is_some()) {
+                return Err(ScenarioError::field(
+                    &scenario.file,
+                    field,
+                    "relations expectations need a [log] with relations",
+                ));
+            }
+            RELATIONS_STATS.contains(stat)
         }
         ["regions", name, stat] => {
             if !scenario.world.regions.iter().any(|r| r.name == *name) {
@@ -332,6 +347,8 @@ pub fn parse_expectations(
                         "mean_nees_xy".to_string()
                     } else if let Some(s) = stem.strip_prefix("heading_") {
                         format!("heading_error.{s}")
+                    } else if let Some(s) = stem.strip_prefix("relations_") {
+                        format!("relations.{s}")
                     } else if let Some(s) = stem.strip_prefix("converged_") {
                         format!("after_convergence.{s}")
                     } else {
@@ -362,6 +379,10 @@ pub fn metric_value(src: &MetricSource, path: &str) -> Option<f64> {
         ["heading_error", s] => m.heading_error.get(s),
         ["after_convergence", s] => m.after_convergence.and_then(|a| a.get(s)),
         ["final_position_error"] => Some(m.final_position_error),
+        ["relations", "trans_mean_m"] => src.relations.map(|r| r.trans_mean_m),
+        ["relations", "trans_std_m"] => src.relations.map(|r| r.trans_std_m),
+        ["relations", "rot_mean_deg"] => src.relations.map(|r| r.rot_mean_deg),
+        ["relations", "rot_std_deg"] => src.relations.map(|r| r.rot_std_deg),
         ["converged_after_s"] => m.converged_after_s,
         ["mean_nees_xy"] => m.mean_nees_xy,
         ["recovered_after_s"] => {
@@ -519,6 +540,7 @@ mod tests {
         let src = MetricSource {
             metrics: &m,
             recoveries: &[],
+            relations: None,
         };
         let exps = [
             Expectation::Bound {
@@ -571,6 +593,7 @@ mod tests {
         let src = |m| MetricSource {
             metrics: m,
             recoveries: &[],
+            relations: None,
         };
         let claims = |median: f64| {
             vec![
@@ -620,6 +643,7 @@ mod tests {
         let src = |m| MetricSource {
             metrics: m,
             recoveries: &[],
+            relations: None,
         };
         let r = evaluate(exps.iter(), &src(&chooser), &|_| None);
         // odometry chosen all the time; mcl never, which is a share of 0, not a missing value.

@@ -66,7 +66,11 @@ fn node_of(stamps: &[f64], t: f64, tolerance: f64) -> Option<usize> {
 fn odometry_information(m: &Pose2) -> [f64; 3] {
     let s_xy = ODOMETRY_SIGMA_FLOOR[0] + ODOMETRY_SIGMA_PER_MOTION * m.x.hypot(m.y);
     let s_th = ODOMETRY_SIGMA_FLOOR[1] + ODOMETRY_SIGMA_PER_MOTION * m.theta.abs();
-    [1.0 / (s_xy * s_xy), 1.0 / (s_xy * s_xy), 1.0 / (s_th * s_th)]
+    [
+        1.0 / (s_xy * s_xy),
+        1.0 / (s_xy * s_xy),
+        1.0 / (s_th * s_th),
+    ]
 }
 
 /// Poses at `stamps` from `odometry` (the initial guess) optimised against the relations
@@ -228,9 +232,8 @@ pub fn build_reference(
     let (poses, it) = fit(&initial, &edges).map_err(fail)?;
     iterations += it;
     let reference = track(&stamps, &poses);
-    let fitted = score(&reference, &matched, f64::INFINITY).ok_or_else(|| {
-        fail("no relation could be scored on the fitted reference".into())
-    })?;
+    let fitted = score(&reference, &matched, f64::INFINITY)
+        .ok_or_else(|| fail("no relation could be scored on the fitted reference".into()))?;
     let mean = |f: fn(&RelationsScore) -> f64| {
         folds.iter().map(f).sum::<f64>() / folds.len().max(1) as f64
     };

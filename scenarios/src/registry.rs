@@ -337,7 +337,7 @@ impl LocalizerRegistry {
     ) -> Result<RunResult, ScenarioError> {
         let seed = options.seed.unwrap_or(scenario.seed);
         if let Some(log) = scenario.log.as_deref() {
-            let mut stream = crate::log::LogStream::new(log);
+            let mut stream = crate::log_stream::LogStream::new(log);
             let localizers = self.build_all(scenario, seed)?;
             return run_localizers(scenario, seed, &mut stream, &[], localizers, options);
         }

@@ -524,6 +524,13 @@ pub fn run_localizers(
             relations: None,
         });
     }
+    // Relations first: expectations may bound them.
+    if let Some(rels) = scenario.log.as_deref().and_then(|l| l.relations.as_ref()) {
+        for r in runs.iter_mut() {
+            r.relations =
+                crate::relations::score(&r.trajectory, rels, crate::log::REFERENCE_MAX_GAP_S);
+        }
+    }
     for i in 0..runs.len() {
         let own_exps = expectations
             .iter()
@@ -534,12 +541,14 @@ pub fn run_localizers(
                 let own = MetricSource {
                     metrics: m,
                     recoveries: &runs[i].recoveries,
+                    relations: runs[i].relations.as_ref(),
                 };
                 let lookup = |name: &str| {
                     runs.iter().find(|r| r.name == name).and_then(|r| {
                         r.metrics.as_ref().map(|m| MetricSource {
                             metrics: m,
                             recoveries: &r.recoveries,
+                            relations: r.relations.as_ref(),
                         })
                     })
                 };
@@ -566,27 +575,19 @@ pub fn run_localizers(
         runs[i].expectations = results;
     }
 
-    let log = scenario.log.as_deref().map(|l| {
-        if let Some(rels) = &l.relations {
-            for r in runs.iter_mut() {
-                r.relations =
-                    crate::relations::score(&r.trajectory, rels, crate::log::REFERENCE_MAX_GAP_S);
-            }
-        }
-        LogRunInfo {
-            path: l.path.display().to_string(),
-            scan_topic: l.scan_topic.clone(),
-            odom_topic: l.odom_topic.clone(),
-            t0: l.t0,
-            scans: l.scans.len(),
-            reference: l.reference_source.clone(),
-            scored_instants: ground_truth.len(),
-            unscored_scans: l.unscored_scans,
-            reference_accuracy: l.reference_accuracy.clone(),
-            laser_mount: [l.mount.x, l.mount.y, l.mount.theta],
-            laser_mount_source: l.mount_source.clone(),
-            relations: l.relations_file.as_ref().map(|p| p.display().to_string()),
-        }
+    let log = scenario.log.as_deref().map(|l| LogRunInfo {
+        path: l.path.display().to_string(),
+        scan_topic: l.scan_topic.clone(),
+        odom_topic: l.odom_topic.clone(),
+        t0: l.t0,
+        scans: l.scans.len(),
+        reference: l.reference_source.clone(),
+        scored_instants: ground_truth.len(),
+        unscored_scans: l.unscored_scans,
+        reference_accuracy: l.reference_accuracy.clone(),
+        laser_mount: [l.mount.x, l.mount.y, l.mount.theta],
+        laser_mount_source: l.mount_source.clone(),
+        relations: l.relations_file.as_ref().map(|p| p.display().to_string()),
     });
     let wall_s = started.elapsed().as_secs_f64();
     let sim_time_s = summary.sim_time_s;

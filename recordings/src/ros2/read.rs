@@ -26,228 +26,6 @@ use foxglove::messages as fg;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
-/// A tiny YAML subset reader, enough for rosbag2's `metadata.yaml` (block mappings and
-/// sequences, plain and quoted scalars, empty flow collections). The workspace has no YAML
-/// crate; this reads what rosbag2 (yaml-cpp), `rosbags` (ruamel) and Atrium write.
-pub mod yaml {
-    #[derive(Debug, Clone, PartialEq)]
-    pub enum Value {
-        Map(Vec<(String, Value)>),
-        Seq(Vec<Value>),
-        Str(String),
-    }
-
-    impl Value {
-        pub fn get(&self, key: &str) -> Option<&Value> {
-            match self {
-                Value::Map(m) => m.iter().find(|(k, _)| k == key).map(|(_, v)| v),
-                _ => None,
-            }
-        }
-        pub fn as_str(&self) -> Option<&str> {
-            match self {
-                Value::Str(s) => Some(s),
-                _ => None,
-            }
-        }
-        pub fn as_seq(&self) -> Option<&[Value]> {
-            match self {
-                Value::Seq(v) => Some(v),
-                // `key: []` or an empty `key:`.
-                Value::Str(s) if s.is_empty() || s == "[]" => Some(&[]),
-                _ => None,
-            }
-        }
-    }
-
-    /// Where a line comment starts (a `#` after a blank, outside quotes), if any.
-    fn strip_comment(s: &str) -> &str {
-        let (mut single, mut double, mut prev) = (false, false, ' ');
-        for (i, c) in s.char_indices() {
-            match c {
-                '\'' if !double => single = !single,
-                '"' if !single && prev != '\\' => double = !double,
-                '#' if !single && !double && prev.is_whitespace() => return s[..i].trim_end(),
-                _ => {}
-            }
-            prev = c;
-        }
-        s.trim_end()
-    }
-
-    fn unquote(s: &str, line: usize) -> Result<String, String> {
-        let s = s.trim();
-        if let Some(body) = s.strip_prefix('"') {
-            let body = body
-                .strip_suffix('"')
-                .ok_or_else(|| format!("line {line}: unterminated double-quoted string"))?;
-            let mut out = String::new();
-            let mut chars = body.chars();
-            while let Some(c) = chars.next() {
-                if c != '\\' {
-                    out.push(c);
-                    continue;
-                }
-                match chars.next() {
-                    Some('n') => out.push('\n'),
-                    Some('t') => out.push('\t'),
-                    Some('r') => out.push('\r'),
-                    Some('0') => out.push('\0'),
-                    Some('"') => out.push('"'),
-                    Some('\\') => out.push('\\'),
-                    Some('/') => out.push('/'),
-                    Some(' ') => out.push(' '),
-                    Some(k @ ('x' | 'u' | 'U')) => {
-                        let n = match k {
-                            'x' => 2,
-                            'u' => 4,
-                            _ => 8,
-                        };
-                        let hex: String = chars.by_ref().take(n).collect();
-                        let c = u32::from_str_radix(&hex, 16)
-                            .ok()
-                            .and_then(char::from_u32)
-                            .ok_or_else(|| format!("line {line}: bad escape \\{k}{hex}"))?;
-                        out.push(c);
-                    }
-                    other => return Err(format!("line {line}: unknown escape \\{other:?}")),
-                }
-            }
-            Ok(out)
-        } else if let Some(body) = s.strip_prefix('\'') {
-            let body = body
-                .strip_suffix('\'')
-                .ok_or_else(|| format!("line {line}: unterminated single-quoted string"))?;
-            Ok(body.replace("''", "'"))
-        } else if s == "{}" {
-            Ok(String::new())
-        } else {
-            Ok(s.to_string())
-        }
-    }
-
-    /// (indent, text, 1-based line number) of every line with content.
-    type Lines = Vec<(usize, String, usize)>;
-
-    /// Parses `text` into a value; errors name the line.
-    pub fn parse(text: &str) -> Result<Value, String> {
-        let mut lines: Lines = Vec::new();
-        let mut raw = text.lines().enumerate().peekable();
-        while let Some((n, l)) = raw.next() {
-            let mut l = l.to_string();
-            // A double-quoted scalar folded over several lines (ruamel wraps long ones).
-            while l.matches('"').count() % 2 == 1 && l.contains(": \"") {
-                match raw.next() {
-                    Some((_, next)) => {
-                        if l.ends_with('\\') {
-                            l.pop();
-                            l.push_str(next.trim_start());
-                        } else {
-                            l.push(' ');
-                            l.push_str(next.trim());
-                        }
-                    }
-                    None => break,
-                }
-            }
-            let content = strip_comment(&l);
-            let trimmed = content.trim_start();
-            if trimmed.is_empty() || trimmed == "---" || trimmed == "..." {
-                continue;
-            }
-            lines.push((content.len() - trimmed.len(), trimmed.to_string(), n + 1));
-        }
-        if lines.is_empty() {
-            return Ok(Value::Map(Vec::new()));
-        }
-        let mut i = 0;
-        let indent = lines[0].0;
-        let v = block(&mut lines, &mut i, indent)?;
-        if i < lines.len() {
-            return Err(format!("line {}: unexpected indentation", lines[i].2));
-        }
-        Ok(v)
-    }
-
-    fn is_seq_item(s: &str) -> bool {
-        s == "-" || s.starts_with("- ")
-    }
-
-    /// Splits `key: value` (None when the line is no mapping entry).
-    fn key_value(s: &str) -> Option<(String, &str)> {
-        if s.starts_with('"') || s.starts_with('\'') {
-            let q = s.chars().next()?;
-            let end = s[1..].find(q)? + 1;
-            let rest = s[end + 1..].strip_prefix(':')?;
-            if !(rest.is_empty() || rest.starts_with(' ')) {
-                return None;
-            }
-            return Some((unquote(&s[..=end], 0).ok()?, rest.trim()));
-        }
-        let pos = s
-            .find(": ")
-            .or_else(|| s.ends_with(':').then(|| s.len() - 1))?;
-        Some((s[..pos].trim().to_string(), s[pos + 1..].trim()))
-    }
-
-    fn block(lines: &mut Lines, i: &mut usize, indent: usize) -> Result<Value, String> {
-        if is_seq_item(&lines[*i].1) {
-            let mut items = Vec::new();
-            while *i < lines.len() && lines[*i].0 == indent && is_seq_item(&lines[*i].1) {
-                let (_, text, n) = lines[*i].clone();
-                let rest = text[1..].trim_start();
-                if rest.is_empty() {
-                    *i += 1;
-                    if *i < lines.len() && lines[*i].0 > indent {
-                        let inner = lines[*i].0;
-                        items.push(block(lines, i, inner)?);
-                    } else {
-                        items.push(Value::Str(String::new()));
-                    }
-                } else if key_value(rest).is_some() || is_seq_item(rest) {
-                    // `- key: value`: a mapping whose first line starts after the dash.
-                    let inner = indent + (text.len() - rest.len());
-                    lines[*i] = (inner, rest.to_string(), n);
-                    items.push(block(lines, i, inner)?);
-                } else {
-                    items.push(Value::Str(unquote(rest, n)?));
-                    *i += 1;
-                }
-            }
-            return Ok(Value::Seq(items));
-        }
-        let mut map = Vec::new();
-        while *i < lines.len() && lines[*i].0 == indent {
-            let (_, text, n) = lines[*i].clone();
-            if is_seq_item(&text) {
-                return Err(format!("line {n}: a list item among mapping keys"));
-            }
-            let (key, value) =
-                key_value(&text).ok_or_else(|| format!("line {n}: expected `key: value`"))?;
-            *i += 1;
-            let v = if !value.is_empty() {
-                if value == "[]" {
-                    Value::Seq(Vec::new())
-                } else {
-                    Value::Str(unquote(value, n)?)
-                }
-            } else if *i < lines.len()
-                && (lines[*i].0 > indent || (lines[*i].0 == indent && is_seq_item(&lines[*i].1)))
-            {
-                let inner = lines[*i].0;
-                block(lines, i, inner)?
-            } else {
-                Value::Str(String::new())
-            };
-            map.push((key, v));
-        }
-        if *i < lines.len() && lines[*i].0 > indent {
-            return Err(format!("line {}: unexpected indentation", lines[*i].2));
-        }
-        Ok(Value::Map(map))
-    }
-}
-
 fn bad(file: &Path, what: impl Into<String>, msg: impl Into<String>) -> ScenarioError {
     ScenarioError::field(file, what, msg)
 }
@@ -295,36 +73,17 @@ pub fn bag_info(dir: &Path) -> Result<BagInfo, ScenarioError> {
             })
         }
     };
-    let doc = yaml::parse(&text).map_err(|e| bad(&yaml_path, "yaml", e))?;
-    let info = doc.get("rosbag2_bagfile_information").ok_or_else(|| {
-        bad(
-            &yaml_path,
-            "rosbag2_bagfile_information",
-            "missing: not a rosbag2 metadata file",
-        )
-    })?;
+    let meta = atrium_formats::rosbag2::metadata::parse(&text, &yaml_path)?;
     let field = |k: &str| format!("rosbag2_bagfile_information.{k}");
-    let str_of = |v: &yaml::Value, k: &str| -> Result<String, ScenarioError> {
-        v.get(k)
-            .and_then(yaml::Value::as_str)
-            .map(str::to_string)
-            .ok_or_else(|| bad(&yaml_path, field(k), "missing"))
-    };
-    let version: u64 = str_of(info, "version")?
-        .parse()
-        .map_err(|_| bad(&yaml_path, field("version"), "not a number"))?;
-    let storage_id = str_of(info, "storage_identifier")?;
-    if storage_id != "mcap" {
+    let version = u64::from(meta.version);
+    if meta.storage_identifier != "mcap" {
         return Err(bad(
             &yaml_path,
             field("storage_identifier"),
-            format!("{storage_id:?}: Atrium reads bags with MCAP storage only (convert with `ros2 bag convert`)"),
+            format!("{:?}: `atrium replay` and `score` read Atrium's bags, with MCAP storage (a real robot's bag of any storage runs as a log scenario, [log])", meta.storage_identifier),
         ));
     }
-    let compression = info
-        .get("compression_mode")
-        .and_then(yaml::Value::as_str)
-        .unwrap_or("");
+    let compression = meta.compression_mode.trim();
     if !(compression.is_empty() || compression.eq_ignore_ascii_case("none")) {
         return Err(bad(
             &yaml_path,
@@ -334,15 +93,8 @@ pub fn bag_info(dir: &Path) -> Result<BagInfo, ScenarioError> {
             ),
         ));
     }
-    let files: Vec<&str> = info
-        .get("relative_file_paths")
-        .and_then(yaml::Value::as_seq)
-        .ok_or_else(|| bad(&yaml_path, field("relative_file_paths"), "missing"))?
-        .iter()
-        .filter_map(yaml::Value::as_str)
-        .collect();
-    let file = match files.as_slice() {
-        [one] => *one,
+    let file = match meta.relative_file_paths.as_slice() {
+        [one] => one.as_str(),
         other => {
             return Err(bad(
                 &yaml_path,
@@ -370,42 +122,25 @@ pub fn bag_info(dir: &Path) -> Result<BagInfo, ScenarioError> {
             format!("the storage file {} does not exist", storage.display()),
         ));
     }
-    let list = info
-        .get("topics_with_message_count")
-        .and_then(yaml::Value::as_seq)
-        .ok_or_else(|| bad(&yaml_path, field("topics_with_message_count"), "missing"))?;
     let mut topics = Vec::new();
-    for (k, t) in list.iter().enumerate() {
-        let at = field(&format!("topics_with_message_count[{k}]"));
-        let meta = t
-            .get("topic_metadata")
-            .ok_or_else(|| bad(&yaml_path, &at, "lacks topic_metadata"))?;
-        let get = |key: &str| {
-            meta.get(key)
-                .and_then(yaml::Value::as_str)
-                .map(str::to_string)
-                .ok_or_else(|| bad(&yaml_path, format!("{at}.topic_metadata.{key}"), "missing"))
-        };
-        let name = get("name")?;
-        let msg_type = get("type")?;
-        let format = get("serialization_format")?;
-        if format != "cdr" {
+    for t in &meta.topics_with_message_count {
+        let m = &t.topic_metadata;
+        if m.serialization_format != "cdr" {
             return Err(bad(
                 &yaml_path,
-                format!("topic {name}"),
-                format!("serialization format {format:?}: Atrium reads CDR only"),
+                format!("topic {}", m.name),
+                format!(
+                    "serialization format {:?}: Atrium reads CDR only",
+                    m.serialization_format
+                ),
             ));
         }
-        check_type(&name, &msg_type).map_err(|m| bad(&yaml_path, format!("topic {name}"), m))?;
-        let count = t
-            .get("message_count")
-            .and_then(yaml::Value::as_str)
-            .and_then(|c| c.parse().ok())
-            .unwrap_or(0);
+        check_type(&m.name, &m.msg_type)
+            .map_err(|e| bad(&yaml_path, format!("topic {}", m.name), e))?;
         topics.push(BagTopic {
-            name,
-            msg_type,
-            count,
+            name: m.name.clone(),
+            msg_type: m.msg_type.clone(),
+            count: t.message_count,
         });
     }
     Ok(BagInfo {
@@ -802,39 +537,8 @@ impl Decoder {
 mod tests {
     use super::*;
 
-    #[test]
-    fn yaml_reads_what_rosbag2_and_rosbags_write() {
-        let text = "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n  relative_file_paths:\n    - run_0.mcap\n  topics_with_message_count:\n    - topic_metadata:\n        name: /odom\n        type: nav_msgs/msg/Odometry # comment\n        offered_qos_profiles: \"- history: 3\\n  depth: 0\"\n      message_count: 12\n    - topic_metadata:\n        name: '/it''s'\n        type: std_msgs/msg/String\n        offered_qos_profiles:\n        - history: keep_last\n          depth: 1\n      message_count: 1\n  custom_data: {}\n  files: []\n";
-        let v = yaml::parse(text).unwrap();
-        let info = v.get("rosbag2_bagfile_information").unwrap();
-        assert_eq!(info.get("version").unwrap().as_str(), Some("5"));
-        let files = info.get("relative_file_paths").unwrap().as_seq().unwrap();
-        assert_eq!(files, &[yaml::Value::Str("run_0.mcap".into())]);
-        let topics = info
-            .get("topics_with_message_count")
-            .unwrap()
-            .as_seq()
-            .unwrap();
-        assert_eq!(topics.len(), 2);
-        let m = topics[0].get("topic_metadata").unwrap();
-        assert_eq!(
-            m.get("type").unwrap().as_str(),
-            Some("nav_msgs/msg/Odometry")
-        );
-        assert_eq!(
-            m.get("offered_qos_profiles").unwrap().as_str(),
-            Some("- history: 3\n  depth: 0")
-        );
-        assert_eq!(topics[0].get("message_count").unwrap().as_str(), Some("12"));
-        let m = topics[1].get("topic_metadata").unwrap();
-        assert_eq!(m.get("name").unwrap().as_str(), Some("/it's"));
-        let q = m.get("offered_qos_profiles").unwrap().as_seq().unwrap();
-        assert_eq!(q[0].get("depth").unwrap().as_str(), Some("1"));
-        assert_eq!(info.get("files").unwrap().as_seq().unwrap().len(), 0);
-        assert!(yaml::parse("a: 1\n   b: 2\n").is_err());
-        assert!(yaml::parse("a: \"open\n").is_err());
-    }
-
+    /// What `atrium record --profile ros2` writes is read back by the formats crate's
+    /// metadata reader (a YAML parser), as replay reads it.
     #[test]
     fn written_metadata_parses_back() {
         let topics = vec![
@@ -851,43 +555,15 @@ mod tests {
         ];
         let text =
             crate::ros2::record::metadata_yaml("b_0.mcap", &topics, 5_000_000, 90_000_000_000);
-        let v = yaml::parse(&text).unwrap();
-        let info = v.get("rosbag2_bagfile_information").unwrap();
-        assert_eq!(info.get("message_count").unwrap().as_str(), Some("41"));
-        let t = info
-            .get("topics_with_message_count")
-            .unwrap()
-            .as_seq()
-            .unwrap();
-        let qos = t[0]
-            .get("topic_metadata")
-            .and_then(|m| m.get("offered_qos_profiles"))
-            .and_then(yaml::Value::as_str)
-            .unwrap();
-        // The QoS string is YAML itself: /map is transient local (durability 1).
-        let q = yaml::parse(qos).unwrap();
-        assert_eq!(
-            q.as_seq().unwrap()[0].get("durability").unwrap().as_str(),
-            Some("1")
-        );
-        let q = t[1]
-            .get("topic_metadata")
-            .unwrap()
-            .get("offered_qos_profiles")
-            .unwrap();
-        let q = yaml::parse(q.as_str().unwrap()).unwrap();
-        assert_eq!(
-            q.as_seq().unwrap()[0].get("durability").unwrap().as_str(),
-            Some("2")
-        );
-        assert_eq!(
-            info.get("duration")
-                .unwrap()
-                .get("nanoseconds")
-                .unwrap()
-                .as_str(),
-            Some("89995000000")
-        );
+        let path = Path::new("metadata.yaml");
+        let m = atrium_formats::rosbag2::metadata::parse(&text, path).unwrap();
+        m.check(path).unwrap();
+        assert_eq!(m.message_count, 41);
+        assert_eq!(m.duration.nanoseconds, 89_995_000_000);
+        assert_eq!(m.relative_file_paths, ["b_0.mcap"]);
+        let odom = m.topic("/odom").unwrap();
+        assert_eq!(odom.message_count, 40);
+        assert_eq!(odom.topic_metadata.msg_type, msgs::ODOMETRY);
     }
 
     #[test]

@@ -496,7 +496,7 @@ fn score_on_log(
     }
     let t0 = log.t0;
     let mut on_tick = |tick: &Tick| clock.set(tick.t + t0);
-    let mut inner = atrium_scenarios::log::LogStream::new(&log);
+    let mut inner = atrium_scenarios::log_stream::LogStream::new(&log);
     let mut stream = Hooked {
         inner: &mut inner,
         on_tick: &mut on_tick,
