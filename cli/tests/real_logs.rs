@@ -466,3 +466,52 @@ fn map_build_refuses_bad_flags_without_writing() {
         assert!(!yaml.exists() && !dir.join("m.pgm").exists());
     }
 }
+
+/// A sweep over a log scenario's `[log]` keys: a laser mount 0.5 m off makes MCL worse than
+/// the log's own mount, cell by cell in the sweep's CSV.
+#[test]
+fn sweeps_take_log_axes() {
+    let dir = tmpdir("real-sweep");
+    let base = fr079_scenario(
+        &dir,
+        "base",
+        &datasets("fixtures/fr079_head_lz4.bag"),
+        "",
+        55.0,
+    );
+    let sweep = dir.join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "base = \"{}\"\nseed = 2\ntrials = 1\n[axes]\n\"log.laser_mount\" = [[0.04, 0.0, 0.0], [0.54, 0.0, 0.0]]\n",
+            base.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = atrium(&[
+        "sweep",
+        sweep.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    let median = |mount: &str| -> f64 {
+        let line = csv
+            .lines()
+            .find(|l| l.contains(mount) && l.contains(",mcl,"))
+            .unwrap_or_else(|| panic!("no mcl row for {mount} in {csv}"));
+        // The mount is quoted (it has commas): take the fields after it.
+        let after = line.split('"').nth(2).unwrap();
+        let fields: Vec<&str> = after.split(',').collect();
+        // ,cell,trial,seed,localizer,min_m,median_m
+        fields[6].parse().unwrap()
+    };
+    let good = median("[0.04, 0.0, 0.0]");
+    let off = median("[0.54, 0.0, 0.0]");
+    assert!(
+        off > 1.5 * good,
+        "mount off by 0.5 m: {off}, right mount: {good}"
+    );
+}
