@@ -15,6 +15,7 @@
 mod dataset_cli;
 mod generate_cli;
 mod map_cli;
+mod realism_cli;
 mod score_cli;
 
 use anyhow::Context;
@@ -106,6 +107,13 @@ enum Command {
         #[command(subcommand)]
         what: map_cli::MapCommand,
     },
+    /// Fit the simulation's odometry and laser models to a log scenario's real log.
+    Calibrate(realism_cli::CalibrateArgs),
+    /// Write the simulated twin of a log scenario: its map, its laser, its calibrated models,
+    /// its reference as the route, its localizers.
+    Twin(realism_cli::TwinArgs),
+    /// Run a log scenario and its twin (once per seed) and compare real and simulated errors.
+    Realism(realism_cli::RealismArgs),
     /// Make a world from a generator file: `atrium generate world GENERATOR.toml
     /// [--set KEY=VALUE ...] -o WORLD.toml`.
     Generate(generate_cli::GenerateArgs),
@@ -573,6 +581,9 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
         Some(Command::Sweep(args)) => sweep_command(registry, args),
         Some(Command::Generate(args)) => Ok(generate_cli::generate_command(args)?),
         Some(Command::Map { what }) => Ok(map_cli::map_command(what)?),
+        Some(Command::Calibrate(args)) => Ok(realism_cli::calibrate_command(args)?),
+        Some(Command::Twin(args)) => Ok(realism_cli::twin_command(args)?),
+        Some(Command::Realism(args)) => Ok(realism_cli::realism_command(registry, args)?),
         Some(Command::Bench {
             what,
             sweep_file,

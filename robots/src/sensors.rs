@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Every field of [`LaserSpec`], as named in TOML.
-const LASER_FIELDS: [&str; 12] = [
+const LASER_FIELDS: [&str; 13] = [
     "name",
     "mount",
     "rate_hz",
@@ -16,17 +16,25 @@ const LASER_FIELDS: [&str; 12] = [
     "range_min",
     "range_max",
     "sigma_hit",
+    "sigma_hit_per_m",
     "p_short",
     "lambda_short",
     "p_max",
     "p_rand",
 ];
 
+/// Fields of [`LaserSpec`] a table without a preset may still leave out: they came after
+/// sensor files were written that give every other field, and their defaults keep those
+/// files' lasers as they were.
+const LASER_OPTIONAL_FIELDS: [&str; 1] = ["sigma_hit_per_m"];
+
 /// Every field of [`OdometrySpec`], as named in TOML.
-const ODOMETRY_FIELDS: [&str; 5] = [
+const ODOMETRY_FIELDS: [&str; 7] = [
     "ticks_per_rev",
     "radius_error",
     "separation_error",
+    "slip_sigma",
+    "slip_correlation_m",
     "scale_error",
     "rate_hz",
 ];
@@ -202,8 +210,13 @@ pub struct LaserSpec {
     pub fov: f64,
     pub range_min: f64,
     pub range_max: f64,
-    /// Standard deviation of the Gaussian range noise, m.
+    /// Standard deviation of the Gaussian range noise at range 0, m.
     pub sigma_hit: f64,
+    /// Growth of the Gaussian range noise's standard deviation with the true range r
+    /// (m per m): σ(r) = `sigma_hit` + `sigma_hit_per_m`·r, as real lasers spread more on
+    /// far walls. Default 0 (σ the same at every range).
+    #[serde(default)]
+    pub sigma_hit_per_m: f64,
     /// Probability that a beam returns short (unmodelled obstacle), exponential with `lambda_short`.
     pub p_short: f64,
     pub lambda_short: f64,
@@ -225,6 +238,7 @@ impl LaserSpec {
             range_min: 0.05,
             range_max: 8.0,
             sigma_hit: 0.01,
+            sigma_hit_per_m: 0.0,
             p_short: 0.01,
             lambda_short: 1.0,
             p_max: 0.005,
@@ -243,6 +257,7 @@ impl LaserSpec {
             range_min: 0.02,
             range_max: 5.6,
             sigma_hit: 0.015,
+            sigma_hit_per_m: 0.0,
             p_short: 0.01,
             lambda_short: 1.0,
             p_max: 0.01,
@@ -278,20 +293,26 @@ impl LaserSpec {
                 )
             })?,
             None => {
-                require_all_fields(table, &LASER_FIELDS, field, &PRESETS)?;
-                // Every field is overwritten below.
+                let required: Vec<&str> = LASER_FIELDS
+                    .into_iter()
+                    .filter(|k| !LASER_OPTIONAL_FIELDS.contains(k))
+                    .collect();
+                require_all_fields(table, &required, field, &PRESETS)?;
+                // Every required field is overwritten below; an optional one left out keeps
+                // this preset's value, which is its default.
                 Self::sick_lms200(&name, &mount)
             }
         };
         if let Some(beams) = count(table, "beams", field)? {
             spec.beams = beams;
         }
-        let numbers: [(&str, &mut f64); 9] = [
+        let numbers: [(&str, &mut f64); 10] = [
             ("rate_hz", &mut spec.rate_hz),
             ("fov", &mut spec.fov),
             ("range_min", &mut spec.range_min),
             ("range_max", &mut spec.range_max),
             ("sigma_hit", &mut spec.sigma_hit),
+            ("sigma_hit_per_m", &mut spec.sigma_hit_per_m),
             ("p_short", &mut spec.p_short),
             ("lambda_short", &mut spec.lambda_short),
             ("p_max", &mut spec.p_max),
@@ -318,6 +339,7 @@ impl LaserSpec {
                 ("range_min", self.range_min),
                 ("range_max", self.range_max),
                 ("sigma_hit", self.sigma_hit),
+                ("sigma_hit_per_m", self.sigma_hit_per_m),
                 ("p_short", self.p_short),
                 ("lambda_short", self.lambda_short),
                 ("p_max", self.p_max),
@@ -347,6 +369,12 @@ impl LaserSpec {
         }
         if self.sigma_hit < 0.0 {
             return Err(format!("sigma_hit: must be >= 0 (got {})", self.sigma_hit));
+        }
+        if self.sigma_hit_per_m < 0.0 {
+            return Err(format!(
+                "sigma_hit_per_m: must be >= 0 (got {})",
+                self.sigma_hit_per_m
+            ));
         }
         if self.lambda_short <= 0.0 {
             return Err(format!(
@@ -397,8 +425,24 @@ pub struct OdometrySpec {
     /// Default 0.
     #[serde(default)]
     pub scale_error: f64,
+    /// Random slip per wheel: the standard deviation of each wheel's random scale error
+    /// (dimensionless; 0.02 reads a wheel's travel 2 % off, one σ). Each wheel's error is a
+    /// Gauss–Markov process over the distance that wheel rolls, drawn from the run's seed,
+    /// so the drift differs from stretch to stretch and from seed to seed, on top of the
+    /// systematic errors above. Default 0 (no random error).
+    #[serde(default)]
+    pub slip_sigma: f64,
+    /// The distance a wheel rolls over which its slip error decorrelates (the process's
+    /// correlation length), m: short for gravel-like jitter, long for slowly changing floors
+    /// and loads. Default 2.
+    #[serde(default = "default_slip_correlation_m")]
+    pub slip_correlation_m: f64,
     /// Odometry publication rate, Hz.
     pub rate_hz: f64,
+}
+
+fn default_slip_correlation_m() -> f64 {
+    2.0
 }
 
 impl OdometrySpec {
@@ -414,6 +458,8 @@ impl OdometrySpec {
             ("radius_error", &mut spec.radius_error),
             ("separation_error", &mut spec.separation_error),
             ("scale_error", &mut spec.scale_error),
+            ("slip_sigma", &mut spec.slip_sigma),
+            ("slip_correlation_m", &mut spec.slip_correlation_m),
             ("rate_hz", &mut spec.rate_hz),
         ] {
             if let Some(v) = number(table, key, field)? {
@@ -429,7 +475,21 @@ impl OdometrySpec {
         finite(self.radius_error, "radius_error")?;
         finite(self.separation_error, "separation_error")?;
         finite(self.scale_error, "scale_error")?;
+        finite(self.slip_sigma, "slip_sigma")?;
+        finite(self.slip_correlation_m, "slip_correlation_m")?;
         finite(self.rate_hz, "rate_hz")?;
+        if !(0.0..0.5).contains(&self.slip_sigma) {
+            return Err(format!(
+                "slip_sigma: must be within [0, 0.5) (got {})",
+                self.slip_sigma
+            ));
+        }
+        if self.slip_correlation_m <= 0.0 {
+            return Err(format!(
+                "slip_correlation_m: must be > 0 m (got {})",
+                self.slip_correlation_m
+            ));
+        }
         if self.ticks_per_rev < 1 {
             return Err(format!(
                 "ticks_per_rev: must be at least 1 (got {})",
@@ -470,6 +530,8 @@ impl Default for OdometrySpec {
             radius_error: 0.005,
             separation_error: 0.01,
             scale_error: 0.0,
+            slip_sigma: 0.0,
+            slip_correlation_m: default_slip_correlation_m(),
             rate_hz: 50.0,
         }
     }
@@ -642,6 +704,38 @@ mod tests {
             .unwrap_err()
             .contains("MAX_LASER_BEAMS"));
         assert_eq!(laser("beams = 100000").unwrap().beams, MAX_LASER_BEAMS);
+    }
+
+    #[test]
+    fn range_growth_of_the_hit_noise_is_read_checked_and_optional() {
+        assert_eq!(laser("").unwrap().sigma_hit_per_m, 0.0);
+        assert_eq!(
+            laser("sigma_hit_per_m = 0.004").unwrap().sigma_hit_per_m,
+            0.004
+        );
+        assert_eq!(
+            laser("sigma_hit_per_m = -0.1").unwrap_err(),
+            "sensors.laser.sigma_hit_per_m: must be >= 0 (got -0.1)"
+        );
+        assert_eq!(
+            laser("sigma_hit_per_m = nan").unwrap_err(),
+            "sensors.laser.sigma_hit_per_m: must be finite (got NaN)"
+        );
+        // A table without a preset that gives every other field (as sensor files written
+        // before the field existed do) still reads, with no growth.
+        let full: toml::Table = "name = \"l\"\nmount = \"l\"\nrate_hz = 10\nbeams = 181\n\
+                                 fov = 3.14\nrange_min = 0.05\nrange_max = 8.0\n\
+                                 sigma_hit = 0.01\np_short = 0.01\nlambda_short = 1.0\n\
+                                 p_max = 0.005\np_rand = 0.005\n"
+            .parse()
+            .unwrap();
+        let spec = LaserSpec::from_table(&full, "laser[0]").unwrap();
+        assert_eq!(spec.sigma_hit_per_m, 0.0);
+        // Written back and read again, the field survives.
+        let mut spec = LaserSpec::sick_lms200("l", "l");
+        spec.sigma_hit_per_m = 0.003;
+        let table = toml::Table::try_from(&spec).unwrap();
+        assert_eq!(LaserSpec::from_table(&table, "laser[0]").unwrap(), spec);
     }
 
     #[test]

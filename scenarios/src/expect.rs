@@ -102,7 +102,7 @@ fn check_path(path: &str, scenario: &Scenario, field: &str) -> Result<(), Scenar
             true
         }
         ["relations", stat] => {
-            if !scenario.log.as_ref().is_some_and(|l| l.relations.is_some()) {
+            if scenario.log.as_ref().is_none_or(|l| l.relations.is_none()) {
                 return Err(ScenarioError::field(
                     &scenario.file,
                     field,

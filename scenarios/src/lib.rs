@@ -9,6 +9,7 @@
 //! reports (`report`, `output`, `plot`, `slam_plot`).
 
 pub mod builtins;
+pub mod calibrate;
 pub mod camera_sensors;
 pub mod disk_cache;
 pub mod error;
@@ -25,6 +26,7 @@ pub mod metrics;
 pub mod node_route;
 pub mod output;
 pub mod plot;
+pub mod realism;
 pub mod reference_build;
 pub mod registry;
 pub mod relations;
@@ -36,6 +38,7 @@ pub mod seeds;
 pub mod slam;
 pub mod slam_plot;
 pub mod trajectory;
+pub mod twin;
 pub mod verdict;
 
 pub use atrium_localization::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};

@@ -615,6 +615,11 @@ impl RealLog {
         )
     }
 
+    /// The odometry's median message rate, Hz.
+    pub fn odometry_rate_hz(&self) -> f64 {
+        rate_of(self.odometry.iter().map(|(t, _)| *t))
+    }
+
     /// The run's length: from the first scan to the last, s.
     pub fn duration_s(&self) -> f64 {
         self.scans.last().map_or(0.0, |s| s.stamp)

@@ -221,7 +221,7 @@ pub fn build_reference(
             .iter()
             .enumerate()
             .filter(|(k, _)| k % 2 != parity)
-            .map(|(_, r)| r.clone())
+            .map(|(_, r)| *r)
             .collect();
         let (poses, it) = fit(&initial, &train).map_err(fail)?;
         iterations += it;

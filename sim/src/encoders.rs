@@ -5,6 +5,9 @@
 
 use crate::error::SimError;
 use atrium_robots::{normalize_angle, DiffDrive, OdometrySpec, Pose2};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use std::f64::consts::TAU;
 
 /// One quadrature encoder on a wheel joint.
@@ -47,6 +50,51 @@ impl Encoder {
     }
 }
 
+/// Random slip of the two wheels: each wheel's scale error is a first-order Gauss–Markov
+/// (Ornstein–Uhlenbeck) process over the distance it rolls, stationary with standard
+/// deviation `sigma` and correlation length `length` m. Indexed by distance, not time, so a
+/// robot that stands still accumulates nothing and the error over a stretch does not depend
+/// on the odometry rate or the physics step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WheelSlip {
+    sigma: f64,
+    length: f64,
+    /// Current scale error of the left and right wheel.
+    error: [f64; 2],
+    rng: ChaCha8Rng,
+}
+
+impl WheelSlip {
+    /// Starts both wheels at a draw from the stationary distribution.
+    pub fn new(sigma: f64, length: f64, mut rng: ChaCha8Rng) -> Self {
+        let mut draw = || sigma * rng.sample::<f64, _>(StandardNormal);
+        let error = [draw(), draw()];
+        Self {
+            sigma,
+            length,
+            error,
+            rng,
+        }
+    }
+
+    /// The wheel `w` (0 left, 1 right) rolled `d` m: advances its error by that distance
+    /// (exact discretisation: e ← ρ·e + σ·√(1 − ρ²)·n, ρ = exp(−|d|/L)) and returns the
+    /// distance the odometry reads, d·(1 + e).
+    pub fn read(&mut self, w: usize, d: f64) -> f64 {
+        if d == 0.0 {
+            return 0.0;
+        }
+        let rho = (-d.abs() / self.length).exp();
+        let n: f64 = self.rng.sample(StandardNormal);
+        self.error[w] = rho * self.error[w] + self.sigma * (1.0 - rho * rho).sqrt() * n;
+        d * (1.0 + self.error[w])
+    }
+
+    pub fn errors(&self) -> [f64; 2] {
+        self.error
+    }
+}
+
 /// Dead reckoning from tick counts with the believed wheel radii and separation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Odometry {
@@ -57,6 +105,7 @@ pub struct Odometry {
     pose: Pose2,
     left_ticks: i64,
     right_ticks: i64,
+    slip: Option<WheelSlip>,
 }
 
 impl Odometry {
@@ -99,13 +148,31 @@ impl Odometry {
             pose: start,
             left_ticks: 0,
             right_ticks: 0,
+            slip: None,
         })
+    }
+
+    /// Adds the spec's random wheel slip (`slip_sigma` > 0), drawn from `rng`.
+    pub fn with_slip(mut self, spec: &OdometrySpec, rng: ChaCha8Rng) -> Self {
+        if spec.slip_sigma > 0.0 {
+            self.slip = Some(WheelSlip::new(
+                spec.slip_sigma,
+                spec.slip_correlation_m,
+                rng,
+            ));
+        }
+        self
     }
 
     /// Integrates the change since the last call as one constant-speed arc.
     pub fn update(&mut self, left_ticks: i64, right_ticks: i64) -> Pose2 {
-        let dl = (left_ticks - self.left_ticks) as f64 * self.rad_per_tick * self.left_radius;
-        let dr = (right_ticks - self.right_ticks) as f64 * self.rad_per_tick * self.right_radius;
+        let mut dl = (left_ticks - self.left_ticks) as f64 * self.rad_per_tick * self.left_radius;
+        let mut dr =
+            (right_ticks - self.right_ticks) as f64 * self.rad_per_tick * self.right_radius;
+        if let Some(slip) = &mut self.slip {
+            dl = slip.read(0, dl);
+            dr = slip.read(1, dr);
+        }
         self.left_ticks = left_ticks;
         self.right_ticks = right_ticks;
         if dl != 0.0 || dr != 0.0 {
@@ -131,6 +198,35 @@ impl Odometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
+
+    /// Over many independent stretches of 10 m, the slip's mean error over a stretch has the
+    /// spread the Gauss–Markov process predicts: Var = 2σ²L²/D² (D/L − 1 + e^(−D/L)).
+    #[test]
+    fn slip_error_over_a_stretch_has_the_predicted_spread() {
+        let (sigma, length, stretch, step) = (0.03, 2.0, 10.0, 0.01);
+        let mut slip = WheelSlip::new(sigma, length, ChaCha8Rng::seed_from_u64(3));
+        let n = 2000;
+        let mut means = Vec::with_capacity(n);
+        for _ in 0..n {
+            let mut read = 0.0;
+            for _ in 0..(stretch / step) as usize {
+                read += slip.read(0, step);
+            }
+            means.push(read / stretch - 1.0);
+        }
+        let var = means.iter().map(|m| m * m).sum::<f64>() / n as f64;
+        let x = stretch / length;
+        let want = 2.0 * sigma * sigma / (x * x) * (x - 1.0 + (-x).exp());
+        assert!(
+            (var / want - 1.0).abs() < 0.15,
+            "variance {var}, predicted {want}"
+        );
+        // A wheel that does not roll keeps its error; the other wheel's draws are its own.
+        let before = slip.errors();
+        assert_eq!(slip.read(0, 0.0), 0.0);
+        assert_eq!(slip.errors(), before);
+    }
     use std::f64::consts::PI;
 
     #[test]
@@ -205,6 +301,8 @@ mod tests {
             radius_error: 0.0,
             separation_error: 0.0,
             scale_error: 0.03,
+            slip_sigma: 0.0,
+            slip_correlation_m: 2.0,
             rate_hz: 50.0,
         };
         let truth = DiffDrive {

@@ -94,6 +94,12 @@ pub fn validate_spec(spec: &LaserSpec, field: &str) -> Result<(), SimError> {
             format!("must be finite and >= 0, got {}", spec.sigma_hit),
         ));
     }
+    if !(spec.sigma_hit_per_m.is_finite() && spec.sigma_hit_per_m >= 0.0) {
+        return Err(err(
+            "sigma_hit_per_m",
+            format!("must be finite and >= 0, got {}", spec.sigma_hit_per_m),
+        ));
+    }
     for (f, p) in [
         ("p_short", spec.p_short),
         ("p_max", spec.p_max),
@@ -229,7 +235,9 @@ impl Laser {
 
 /// The beam model (Probabilistic Robotics §6.3): each beam is, with probability p_short,
 /// an exponential(λ_short) reading truncated to [0, z*]; with p_max a max-range failure;
-/// with p_rand uniform on [0, z_max); otherwise the true range plus N(0, σ_hit²).
+/// with p_rand uniform on [0, z_max); otherwise the true range z* plus N(0, σ(z*)²), with
+/// σ(z*) = σ_hit + σ_hit_per_m·z* (a zero growth leaves σ_hit itself, so the draws and
+/// readings of a laser without growth are those of a constant σ, bit for bit).
 /// Readings are clamped to [range_min, range_max]; a beam with no return reads range_max
 /// unless the short or random component fires.
 fn apply_noise(s: &LaserSpec, truth: &[f64], ranges: &mut [f64], rng: &mut ChaCha8Rng) {
@@ -248,7 +256,7 @@ fn apply_noise(s: &LaserSpec, truth: &[f64], ranges: &mut [f64], rng: &mut ChaCh
             rng.random_range(0.0..hi)
         } else if returned {
             let n: f64 = rng.sample(StandardNormal);
-            zt + s.sigma_hit * n
+            zt + (s.sigma_hit + s.sigma_hit_per_m * zt) * n
         } else {
             hi
         };
@@ -321,6 +329,63 @@ mod tests {
     }
 
     #[test]
+    fn hit_noise_grows_with_the_true_range() {
+        let world = fixtures::box_room(12.0, 4.0, "concrete");
+        let scene = Scene::new(&world, 200.0).unwrap();
+        let mut spec = LaserSpec::sick_lms200("front", "laser");
+        (spec.beams, spec.fov, spec.range_max) = (40_000, std::f64::consts::TAU, 20.0);
+        (spec.p_short, spec.p_max, spec.p_rand) = (0.0, 0.0, 0.0);
+        (spec.sigma_hit, spec.sigma_hit_per_m) = (0.002, 0.01);
+        let rng = ChaCha8Rng::seed_from_u64(5);
+        let mount = Isometry3::translation(0.0, 0.0, 0.3);
+        let mut laser = Laser::new(spec, &mount, rng, "lasers[0]").unwrap();
+        let scan = laser.scan(&scene, &Pose::IDENTITY, 0.0);
+        // The relative spread (z − z*)/σ(z*) is a unit normal at every range, near and far.
+        for (lo, hi) in [(1.9, 2.5), (4.0, 5.8)] {
+            let (mut n, mut sum2) = (0.0, 0.0);
+            for (z, t) in scan.ranges.iter().zip(laser.true_ranges()) {
+                if (lo..hi).contains(t) {
+                    let e = (z - t) / (0.002 + 0.01 * t);
+                    (n, sum2) = (n + 1.0, sum2 + e * e);
+                }
+            }
+            let sd = (sum2 / n).sqrt();
+            assert!(
+                n > 2000.0 && (sd - 1.0).abs() < 0.05,
+                "{lo}..{hi}: {sd} of {n}"
+            );
+        }
+    }
+
+    #[test]
+    fn without_growth_the_noise_is_the_constant_sigma_draw_for_draw() {
+        let mut spec = LaserSpec::sick_lms200("front", "laser");
+        (spec.p_short, spec.p_max, spec.p_rand) = (0.1, 0.05, 0.05);
+        let truth: Vec<f64> = (0..5000).map(|i| 0.1 + 7.0 * (i as f64 / 5000.0)).collect();
+        let mut got = vec![0.0; truth.len()];
+        apply_noise(&spec, &truth, &mut got, &mut ChaCha8Rng::seed_from_u64(11));
+        // The model as it was before σ could grow with range, drawn from the same stream.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let s = &spec;
+        for (z, &zt) in got.iter().zip(&truth) {
+            let u: f64 = rng.random();
+            let r = if u < s.p_short {
+                let v: f64 = rng.random();
+                let tail = 1.0 - (-s.lambda_short * zt).exp();
+                -(1.0 - v * tail).ln() / s.lambda_short
+            } else if u < s.p_short + s.p_max {
+                s.range_max
+            } else if u < s.p_short + s.p_max + s.p_rand {
+                rng.random_range(0.0..s.range_max)
+            } else {
+                let n: f64 = rng.sample(StandardNormal);
+                zt + s.sigma_hit * n
+            };
+            assert_eq!(z.to_bits(), r.clamp(s.range_min, s.range_max).to_bits());
+        }
+    }
+
+    #[test]
     fn bad_specs_are_named() {
         let mut spec = LaserSpec::sick_lms200("front", "laser");
         spec.range_max = 0.01;
@@ -332,6 +397,12 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("l.beams"));
+        let mut spec = LaserSpec::sick_lms200("front", "laser");
+        spec.sigma_hit_per_m = -0.01;
+        assert!(validate_spec(&spec, "l")
+            .unwrap_err()
+            .to_string()
+            .contains("l.sigma_hit_per_m"));
         let mut spec = LaserSpec::sick_lms200("front", "laser");
         spec.lambda_short = 0.0;
         assert!(validate_spec(&spec, "l")

@@ -70,6 +70,8 @@ const STREAM_DEPTH: u64 = 0x4000;
 const STREAM_DEPTH_PROBE: u64 = 0x5000;
 /// People's goals and starts (camera streams take 0x7000..0xb000).
 const STREAM_PEOPLE: u64 = 0xb000;
+/// The wheels' random slip.
+const STREAM_ODOMETRY: u64 = 0xc000;
 
 fn stream(seed: u64, id: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -126,7 +128,8 @@ impl Simulation {
     ) -> Result<Simulation, SimError> {
         let hz = crate::error::positive("physics_hz", config.physics_hz)?;
         config.controller.validate()?;
-        let odometry = Odometry::new(&config.odometry, robot.drive(), config.start)?;
+        let odometry = Odometry::new(&config.odometry, robot.drive(), config.start)?
+            .with_slip(&config.odometry, stream(config.seed, STREAM_ODOMETRY));
         let odometry_schedule = Schedule::new(hz, config.odometry.rate_hz, "odometry.rate_hz")?;
         let mut lasers = Vec::with_capacity(config.lasers.len());
         let mut laser_schedules = Vec::with_capacity(config.lasers.len());

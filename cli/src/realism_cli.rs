@@ -1,0 +1,197 @@
+//! `atrium calibrate`, `atrium twin` and `atrium realism`: the simulation's models fitted to
+//! a real log, the simulated twin of a log scenario, and how far the twin's verdicts are
+//! from the real ones (see `atrium_scenarios::{calibrate, twin, realism}`).
+
+use atrium_scenarios::realism::{self, Realism};
+use atrium_scenarios::{calibrate, output, twin, LocalizerRegistry, RunOptions, Scenario};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct CalibrateArgs {
+    /// A log scenario (with `[log]`, a reference and a map).
+    pub scenario: PathBuf,
+    /// Write the `[odometry]` and `[sensors.<name>]` tables here (TOML).
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Print the calibration as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::Args)]
+pub struct TwinArgs {
+    /// A log scenario (with `[log]`, a reference and a map).
+    pub scenario: PathBuf,
+    /// The twin scenario to write; its robot goes beside it as `<stem>.urdf`.
+    #[arg(short = 'o', long = "output")]
+    pub output: PathBuf,
+}
+
+#[derive(clap::Args)]
+pub struct RealismArgs {
+    /// A log scenario (with `[log]`, a reference and a map).
+    pub scenario: PathBuf,
+    /// Seeds of the twin's runs: `1..10`, `3..=5`, `7` or `1,4,9`.
+    #[arg(long, default_value = "1..10")]
+    pub seeds: String,
+    /// Print the comparison as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Write realism.json, the twin (twin.toml, twin.urdf) and the calibration here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Give the twin the calibrated systematic odometry errors only, no random slip (the
+    /// odometry model Atrium had before calibration), to see what the random part changes.
+    #[arg(long)]
+    pub systematic_only: bool,
+}
+
+fn load_log_scenario(path: &Path) -> anyhow::Result<Scenario> {
+    let s = Scenario::load(path)?;
+    if s.log.is_none() {
+        anyhow::bail!(
+            "{}: log: this command reads a log scenario ([log] with a reference); {} simulates",
+            path.display(),
+            s.name
+        );
+    }
+    Ok(s)
+}
+
+pub fn calibrate_command(args: CalibrateArgs) -> anyhow::Result<bool> {
+    if let Some(o) = &args.output {
+        output::refuse_overwriting_inputs(o, &[args.scenario.as_path()])
+            .and_then(|()| output::check_writable_file(o, "-o"))
+            .map_err(anyhow::Error::msg)?;
+    }
+    let scenario = load_log_scenario(&args.scenario)?;
+    let c = calibrate::calibrate(&scenario)?;
+    let text = calibrate::to_toml(&c);
+    if let Some(o) = &args.output {
+        output::write_atomic(o, text.as_bytes())
+            .map_err(|e| anyhow::anyhow!("-o {}: {e}", o.display()))?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&c)?);
+    } else if args.output.is_none() {
+        print!("{text}");
+    }
+    Ok(true)
+}
+
+/// Writes the twin of `scenario` as `file` and its URDF beside it; returns the URDF's path.
+fn write_twin(
+    scenario: &Scenario,
+    c: &calibrate::Calibration,
+    file: &Path,
+) -> anyhow::Result<PathBuf> {
+    let t = twin::twin(scenario, &c.odometry, Some(&c.laser), file)?;
+    let stem = file
+        .file_stem()
+        .map_or("twin".into(), |s| s.to_string_lossy().into_owned());
+    let urdf = file.with_file_name(format!("{stem}.urdf"));
+    output::write_atomic(&urdf, t.urdf.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: {e}", urdf.display()))?;
+    output::write_atomic(file, t.toml.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    Ok(urdf)
+}
+
+pub fn twin_command(args: TwinArgs) -> anyhow::Result<bool> {
+    let o = &args.output;
+    if o.extension().is_none_or(|e| e != "toml") {
+        anyhow::bail!("-o {}: name the twin scenario's TOML file", o.display());
+    }
+    output::refuse_overwriting_inputs(o, &[args.scenario.as_path()])
+        .and_then(|()| output::check_writable_file(o, "-o"))
+        .map_err(anyhow::Error::msg)?;
+    let scenario = load_log_scenario(&args.scenario)?;
+    let c = calibrate::calibrate(&scenario)?;
+    let urdf = write_twin(&scenario, &c, o)?;
+    // The twin must load as written.
+    if let Err(e) = Scenario::load(o) {
+        let _ = std::fs::remove_file(o);
+        let _ = std::fs::remove_file(&urdf);
+        anyhow::bail!("the twin of {} does not load: {e}", args.scenario.display());
+    }
+    eprintln!("wrote {} and {}", o.display(), urdf.display());
+    Ok(true)
+}
+
+pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyhow::Result<bool> {
+    let seeds =
+        atrium_experiments::seed_check::parse_seeds(&args.seeds).map_err(anyhow::Error::msg)?;
+    if let Some(d) = &args.out {
+        output::check_writable_dir(d, "--out").map_err(anyhow::Error::msg)?;
+    }
+    let scenario = load_log_scenario(&args.scenario)?;
+    let mut c = calibrate::calibrate(&scenario)?;
+    if args.systematic_only {
+        c.odometry.slip_sigma = 0.0;
+    }
+    // The twin lives in --out, else in a temporary folder removed afterwards.
+    let (dir, temporary) = match &args.out {
+        Some(d) => (d.clone(), false),
+        None => (
+            std::env::temp_dir().join(format!("atrium-realism-{}", std::process::id())),
+            true,
+        ),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+    let result = (|| -> anyhow::Result<Realism> {
+        let twin_file = dir.join("twin.toml");
+        write_twin(&scenario, &c, &twin_file)?;
+        let twin = Scenario::load(&twin_file)?;
+        let real = registry.run(&scenario, RunOptions::default())?;
+        let sims: Vec<_> = seeds
+            .par_iter()
+            .map(|&seed| {
+                registry.run(
+                    &twin,
+                    RunOptions {
+                        seed: Some(seed),
+                        ..RunOptions::default()
+                    },
+                )
+            })
+            .collect::<Result<_, _>>()?;
+        let dr = scenario
+            .localizers
+            .iter()
+            .find(|l| l.kind == "dead_reckoning")
+            .map(|l| l.name.as_str());
+        let accuracy = scenario
+            .log
+            .as_ref()
+            .and_then(|l| l.reference_accuracy.as_ref())
+            .map(|a| a.position_m);
+        Ok(realism::compare(
+            &real,
+            &sims,
+            scenario.metrics.converge_threshold_m,
+            accuracy,
+            dr,
+        ))
+    })();
+    if temporary {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let r = result?;
+    if let Some(d) = &args.out {
+        output::write_atomic(
+            &d.join("realism.json"),
+            serde_json::to_string_pretty(&r)?.as_bytes(),
+        )?;
+        output::write_atomic(
+            &d.join("calibration.toml"),
+            calibrate::to_toml(&c).as_bytes(),
+        )?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print!("{}", realism::to_text(&r));
+    }
+    Ok(true)
+}
