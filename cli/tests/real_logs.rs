@@ -5,22 +5,10 @@
 
 mod common;
 
-use common::{atrium, tmpdir};
+use common::{atrium, datasets, tmpdir};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Output;
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn datasets(rel: &str) -> String {
-    repo()
-        .join("datasets")
-        .join(rel)
-        .to_string_lossy()
-        .into_owned()
-}
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

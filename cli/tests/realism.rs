@@ -5,17 +5,9 @@
 
 mod common;
 
-use common::{atrium, tmpdir};
+use common::{atrium, datasets, tmpdir};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn datasets(rel: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../datasets")
-        .join(rel)
-        .to_string_lossy()
-        .into_owned()
-}
 
 /// The MIT CSAIL log scenario cut to its first `duration_s` seconds, MCL and dead reckoning.
 fn mit_scenario(dir: &Path, duration_s: f64) -> PathBuf {

@@ -156,23 +156,10 @@ pub fn twin(
         t,
         "\n[controller]\nmax_speed = {speed:.3}\ngoal_tolerance = 0.3\nmax_turn_rate = 2.0"
     );
-    let o = odometry;
     let _ = writeln!(
         t,
-        "\n# Calibrated from the log (atrium calibrate): value ± standard error.\n[odometry]\n\
-         scale_error = {:.5}        # ± {:.5}\nradius_error = {:.5}       # ± {:.5}\n\
-         separation_error = {:.5}   # ± {:.5}\nslip_sigma = {:.5}         # ± {:.5}\n\
-         slip_correlation_m = {:.3}  # ± {:.3}\nrate_hz = {:.1}",
-        o.scale_error,
-        o.stderr.scale_error,
-        o.radius_error,
-        o.stderr.radius_error,
-        o.separation_error,
-        o.stderr.separation_error,
-        o.slip_sigma,
-        o.stderr.slip_sigma,
-        o.slip_correlation_m,
-        o.stderr.slip_correlation_m,
+        "\n# Calibrated from the log (atrium calibrate): value ± standard error.\n[odometry]\n{}rate_hz = {:.1}",
+        crate::calibrate::odometry_lines(odometry),
         log.odometry_rate_hz().clamp(1.0, 200.0),
     );
     let l = &log.laser;
@@ -188,14 +175,7 @@ pub fn twin(
         l.range_max
     );
     match laser {
-        Some(f) => {
-            let _ = writeln!(
-                t,
-                "sigma_hit = {:.4}\nsigma_hit_per_m = {:.5}\np_short = {:.4}\nlambda_short = {:.3}\n\
-                 p_max = {:.4}\np_rand = {:.4}",
-                f.sigma_hit, f.sigma_hit_per_m, f.p_short, f.lambda_short, f.p_max, f.p_rand
-            );
-        }
+        Some(f) => t.push_str(&crate::calibrate::laser_lines(f)),
         None => {
             let _ = writeln!(
                 t,

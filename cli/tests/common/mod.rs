@@ -19,3 +19,14 @@ pub fn tmpdir(tag: &str) -> PathBuf {
     std::fs::create_dir_all(&d).unwrap();
     d
 }
+
+/// A path under the repository's `datasets/` folder, as a string for command lines and
+/// scenario files.
+#[allow(dead_code)] // not every test binary reads the datasets
+pub fn datasets(rel: &str) -> String {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../datasets")
+        .join(rel)
+        .to_string_lossy()
+        .into_owned()
+}

@@ -142,6 +142,34 @@ impl Clock {
     }
 }
 
+/// Makes `scenario` run the foreign trajectory `est` (read from `estimates`) alone, as the
+/// localizer `name`: the registry that builds it and the clock the run's ticks must set.
+fn foreign_run(
+    scenario: &mut Scenario,
+    name: &str,
+    est: &Arc<Estimates>,
+    estimates: &Path,
+) -> Result<(LocalizerRegistry, Clock), ScenarioError> {
+    scenario.localizers = vec![LocalizerSpec {
+        name: name.to_string(),
+        kind: KIND.into(),
+        params: toml::Table::new(),
+    }];
+    let clock = Clock::default();
+    let mut registry = LocalizerRegistry::empty();
+    let (est, tick_clock) = (est.clone(), clock.clone());
+    registry
+        .register(KIND, move |ctx: &mut BuildContext| {
+            Ok(Box::new(ForeignTrajectory {
+                name: ctx.spec.name.clone(),
+                estimates: est.clone(),
+                clock: tick_clock.clone(),
+            }) as Box<dyn Localizer>)
+        })
+        .map_err(|e| ScenarioError::field(estimates, "kind", e.to_string()))?;
+    Ok((registry, clock))
+}
+
 /// A "localizer" whose estimate is a recorded foreign trajectory at the stream's time.
 struct ForeignTrajectory {
     name: String,
@@ -375,26 +403,7 @@ pub fn score(
         check_clock(estimates, est.span(), [1.0 / hz, last])?;
     }
     let mut warnings = keep_own_expectations(&mut scenario, &name);
-    scenario.localizers = vec![LocalizerSpec {
-        name: name.clone(),
-        kind: KIND.into(),
-        params: toml::Table::new(),
-    }];
-
-    let clock = Clock::default();
-    let mut registry = LocalizerRegistry::empty();
-    {
-        let (est, clock) = (est.clone(), clock.clone());
-        registry
-            .register(KIND, move |ctx: &mut BuildContext| {
-                Ok(Box::new(ForeignTrajectory {
-                    name: ctx.spec.name.clone(),
-                    estimates: est.clone(),
-                    clock: clock.clone(),
-                }) as Box<dyn Localizer>)
-            })
-            .map_err(|e| ScenarioError::field(estimates, "kind", e.to_string()))?;
-    }
+    let (registry, clock) = foreign_run(&mut scenario, &name, &est, estimates)?;
     let mut on_tick = |tick: &Tick| clock.set(tick.t);
     let replayed = replay_scenario(
         &rec,
@@ -475,25 +484,7 @@ fn score_on_log(
     let span = [log.t0, log.t0 + log.duration_s()];
     check_clock(estimates, est.span(), span)?;
     let mut warnings = keep_own_expectations(&mut scenario, &name);
-    scenario.localizers = vec![LocalizerSpec {
-        name: name.clone(),
-        kind: KIND.into(),
-        params: toml::Table::new(),
-    }];
-    let clock = Clock::default();
-    let mut registry = LocalizerRegistry::empty();
-    {
-        let (est, clock) = (est.clone(), clock.clone());
-        registry
-            .register(KIND, move |ctx: &mut BuildContext| {
-                Ok(Box::new(ForeignTrajectory {
-                    name: ctx.spec.name.clone(),
-                    estimates: est.clone(),
-                    clock: clock.clone(),
-                }) as Box<dyn Localizer>)
-            })
-            .map_err(|e| ScenarioError::field(estimates, "kind", e.to_string()))?;
-    }
+    let (registry, clock) = foreign_run(&mut scenario, &name, &est, estimates)?;
     let t0 = log.t0;
     let mut on_tick = |tick: &Tick| clock.set(tick.t + t0);
     let mut inner = atrium_scenarios::log_stream::LogStream::new(&log);

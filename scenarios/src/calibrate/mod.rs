@@ -64,34 +64,14 @@ pub fn calibrate(scenario: &Scenario) -> Result<Calibration, ScenarioError> {
     })
 }
 
-/// The `[odometry]` and `[sensors.<name>]` tables of a calibration, with each estimate's
-/// standard error as a comment, for a simulated scenario to include.
-pub fn to_toml(c: &Calibration) -> String {
-    let o = &c.odometry;
-    let l = &c.laser;
-    let u = &l.uncertainty;
+/// The `[odometry]` keys of a fit, one per line, each with its standard error as a comment.
+pub fn odometry_lines(o: &odometry::OdometryFit) -> String {
     format!(
-        "# Calibrated from the log scenario {:?} by `atrium calibrate`: value  # ± standard error\n\
-         # (odometry: {} segments over {:.0} m of path, for a wheel track of {:.3} m; laser: {} beams of {} scans).\n\
-         [odometry]\n\
-         scale_error = {:.5}  # ± {:.5}\n\
+        "scale_error = {:.5}  # ± {:.5}\n\
          radius_error = {:.5}  # ± {:.5}\n\
          separation_error = {:.5}  # ± {:.5}\n\
          slip_sigma = {:.5}  # ± {:.5}\n\
-         slip_correlation_m = {:.3}  # ± {:.3}\n\
-         \n[sensors.{}]\n\
-         sigma_hit = {:.4}  # ± {:.4}\n\
-         sigma_hit_per_m = {:.5}  # ± {:.5}\n\
-         p_short = {:.4}  # ± {:.4}\n\
-         lambda_short = {:.3}  # ± {:.3}\n\
-         p_max = {:.4}  # ± {:.4}\n\
-         p_rand = {:.4}  # ± {:.4}\n",
-        c.scenario,
-        o.segments,
-        o.path_m,
-        o.track_m,
-        l.beams_used,
-        l.scans_used,
+         slip_correlation_m = {:.3}  # ± {:.3}\n",
         o.scale_error,
         o.stderr.scale_error,
         o.radius_error,
@@ -102,7 +82,20 @@ pub fn to_toml(c: &Calibration) -> String {
         o.stderr.slip_sigma,
         o.slip_correlation_m,
         o.stderr.slip_correlation_m,
-        c.laser_name,
+    )
+}
+
+/// The laser noise keys of a fit (a `[sensors.<name>]` table's model), one per line, each
+/// with its standard error as a comment.
+pub fn laser_lines(l: &laser::LaserFit) -> String {
+    let u = &l.uncertainty;
+    format!(
+        "sigma_hit = {:.4}  # ± {:.4}\n\
+         sigma_hit_per_m = {:.5}  # ± {:.5}\n\
+         p_short = {:.4}  # ± {:.4}\n\
+         lambda_short = {:.3}  # ± {:.3}\n\
+         p_max = {:.4}  # ± {:.4}\n\
+         p_rand = {:.4}  # ± {:.4}\n",
         l.sigma_hit,
         u.sigma_hit,
         l.sigma_hit_per_m,
@@ -115,5 +108,26 @@ pub fn to_toml(c: &Calibration) -> String {
         u.p_max,
         l.p_rand,
         u.p_rand,
+    )
+}
+
+/// The `[odometry]` and `[sensors.<name>]` tables of a calibration, with each estimate's
+/// standard error as a comment, for a simulated scenario to include.
+pub fn to_toml(c: &Calibration) -> String {
+    let o = &c.odometry;
+    let l = &c.laser;
+    format!(
+        "# Calibrated from the log scenario {:?} by `atrium calibrate`: value  # ± standard error\n\
+         # (odometry: {} segments over {:.0} m of path, for a wheel track of {:.3} m; laser: {} beams of {} scans).\n\
+         [odometry]\n{}\n[sensors.{}]\n{}",
+        c.scenario,
+        o.segments,
+        o.path_m,
+        o.track_m,
+        l.beams_used,
+        l.scans_used,
+        odometry_lines(o),
+        c.laser_name,
+        laser_lines(l),
     )
 }
