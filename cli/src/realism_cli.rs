@@ -23,7 +23,8 @@ pub struct CalibrateArgs {
 pub struct TwinArgs {
     /// A log scenario (with `[log]`, a reference and a map).
     pub scenario: PathBuf,
-    /// The twin scenario to write; its robot goes beside it as `<stem>.urdf`.
+    /// The twin scenario to write; its robot goes beside it as `<stem>.urdf`, its map as
+    /// `<stem>.map.yaml` and `<stem>.map.pgm`.
     #[arg(short = 'o', long = "output")]
     pub output: PathBuf,
 }
@@ -38,7 +39,8 @@ pub struct RealismArgs {
     /// Print the comparison as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Write realism.json, the twin (twin.toml, twin.urdf) and the calibration here.
+    /// Write realism.json, the twin (twin.toml, twin.urdf, twin.map.yaml/.pgm) and the
+    /// calibration here.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Give the twin the calibrated systematic odometry errors only, no random slip (the
@@ -80,22 +82,34 @@ pub fn calibrate_command(args: CalibrateArgs) -> anyhow::Result<bool> {
     Ok(true)
 }
 
-/// Writes the twin of `scenario` as `file` and its URDF beside it; returns the URDF's path.
+/// The files of the twin `file` besides itself: its robot, its map's YAML and PGM.
+fn twin_companions(file: &Path) -> [PathBuf; 3] {
+    let stem = file
+        .file_stem()
+        .map_or("twin".into(), |s| s.to_string_lossy().into_owned());
+    [
+        file.with_file_name(format!("{stem}.urdf")),
+        file.with_file_name(format!("{stem}.map.yaml")),
+        file.with_file_name(format!("{stem}.map.pgm")),
+    ]
+}
+
+/// Writes the twin of `scenario` as `file`, its robot and map beside it; returns the files
+/// beside it.
 fn write_twin(
     scenario: &Scenario,
     c: &calibrate::Calibration,
     file: &Path,
-) -> anyhow::Result<PathBuf> {
+) -> anyhow::Result<[PathBuf; 3]> {
     let t = twin::twin(scenario, &c.odometry, Some(&c.laser), file)?;
-    let stem = file
-        .file_stem()
-        .map_or("twin".into(), |s| s.to_string_lossy().into_owned());
-    let urdf = file.with_file_name(format!("{stem}.urdf"));
-    output::write_atomic(&urdf, t.urdf.as_bytes())
+    let companions = twin_companions(file);
+    let [urdf, map, _] = &companions;
+    atrium_formats::ros_map::write_map(&t.map, map)?;
+    output::write_atomic(urdf, t.urdf.as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: {e}", urdf.display()))?;
     output::write_atomic(file, t.toml.as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-    Ok(urdf)
+    Ok(companions)
 }
 
 pub fn twin_command(args: TwinArgs) -> anyhow::Result<bool> {
@@ -108,14 +122,29 @@ pub fn twin_command(args: TwinArgs) -> anyhow::Result<bool> {
         .map_err(anyhow::Error::msg)?;
     let scenario = load_log_scenario(&args.scenario)?;
     let c = calibrate::calibrate(&scenario)?;
-    let urdf = write_twin(&scenario, &c, o)?;
+    for f in twin_companions(o) {
+        output::refuse_overwriting_inputs(&f, &[args.scenario.as_path()])
+            .map_err(anyhow::Error::msg)?;
+    }
+    let companions = write_twin(&scenario, &c, o)?;
     // The twin must load as written.
     if let Err(e) = Scenario::load(o) {
         let _ = std::fs::remove_file(o);
-        let _ = std::fs::remove_file(&urdf);
+        for f in &companions {
+            let _ = std::fs::remove_file(f);
+        }
         anyhow::bail!("the twin of {} does not load: {e}", args.scenario.display());
     }
-    eprintln!("wrote {} and {}", o.display(), urdf.display());
+    eprintln!(
+        "wrote {} and, beside it, {}",
+        o.display(),
+        companions
+            .iter()
+            .filter_map(|f| f.file_name())
+            .map(|f| f.to_string_lossy())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     Ok(true)
 }
 

@@ -58,6 +58,15 @@ pub struct DriftRealism {
     pub sim: DriftSummary,
     pub sim_spread: DriftSpread,
     pub ratio: DriftRatio,
+    /// The fraction of the real stretches whose position drift lies within the twin's range
+    /// over the seeds on the same stretch (the k-th 10 m of path in both).
+    pub coverage: f64,
+    /// The coverage of a twin whose seeds and the real run were draws of one process:
+    /// (n − 1)/(n + 1) for n seeds. A twin whose drift does not vary between seeds covers
+    /// next to nothing.
+    pub coverage_expected: f64,
+    /// Median, p90 and heading ratios inside [`AGREEMENT`], and coverage at least half the
+    /// expected.
     pub agrees: bool,
     /// Every stretch, for histograms.
     pub real_stretches: Vec<f64>,
@@ -142,6 +151,28 @@ fn inside(r: f64) -> bool {
     r.is_finite() && r >= AGREEMENT.0 && r <= AGREEMENT.1
 }
 
+/// The fraction of `real` stretches that lie within the range of `per_seed` on the same
+/// stretch index (stretches that not every seed reached are left out); NaN without any.
+pub fn stretch_coverage(real: &[f64], per_seed: &[Vec<f64>]) -> f64 {
+    let (mut inside_range, mut compared) = (0usize, 0usize);
+    for (k, r) in real.iter().enumerate() {
+        let at: Vec<f64> = per_seed.iter().filter_map(|s| s.get(k).copied()).collect();
+        if at.len() < per_seed.len() || at.is_empty() {
+            continue;
+        }
+        let [lo, hi] = span(&at);
+        compared += 1;
+        if (lo..=hi).contains(r) {
+            inside_range += 1;
+        }
+    }
+    if compared == 0 {
+        f64::NAN
+    } else {
+        inside_range as f64 / compared as f64
+    }
+}
+
 /// Compares the real run with the twin's runs (one per seed). `dead_reckoning` names the
 /// localizer whose trajectory is the odometry (drift is left out without one).
 pub fn compare(
@@ -202,12 +233,14 @@ pub fn compare(
         let real_sum = drift::summarize(&real_s)?;
         let mut sums = Vec::new();
         let mut sim_pct = Vec::new();
+        let mut per_seed = Vec::new();
         for s in sims {
             let st = drift::stretches(&drift_pairs(s, dr), DRIFT_STRETCH_M, 1.0);
             sim_pct.extend(st.iter().map(|x| x.position_pct));
             if let Some(sum) = drift::summarize(&st) {
                 sums.push(sum);
             }
+            per_seed.push(st.iter().map(|x| x.position_pct).collect::<Vec<_>>());
         }
         if sums.is_empty() {
             return None;
@@ -229,6 +262,14 @@ pub fn compare(
             p90_pct: sim.p90_pct / real_sum.p90_pct,
             heading_deg_per_m: sim.heading_deg_per_m / real_sum.heading_deg_per_m,
         };
+        let real_pct: Vec<f64> = real_s.iter().map(|x| x.position_pct).collect();
+        let coverage = stretch_coverage(&real_pct, &per_seed);
+        let n = per_seed.len() as f64;
+        let coverage_expected = (n - 1.0) / (n + 1.0);
+        let agrees = inside(ratio.median_pct)
+            && inside(ratio.p90_pct)
+            && inside(ratio.heading_deg_per_m)
+            && coverage >= 0.5 * coverage_expected;
         Some(DriftRealism {
             real: real_sum,
             sim,
@@ -237,9 +278,11 @@ pub fn compare(
                 p90_pct: span(&p),
                 heading_deg_per_m: span(&h),
             },
-            agrees: inside(ratio.median_pct) && inside(ratio.p90_pct),
+            agrees,
             ratio,
-            real_stretches: real_s.iter().map(|x| x.position_pct).collect(),
+            coverage,
+            coverage_expected,
+            real_stretches: real_pct,
             sim_stretches: sim_pct,
         })
     });
@@ -294,7 +337,8 @@ pub fn to_text(r: &Realism) -> String {
         let _ = writeln!(
             t,
             "\ndead-reckoning drift over {DRIFT_STRETCH_M} m stretches (real / sim, ratio):\n  \
-             median {:.1} % / {:.1} % ({:.2}), p90 {:.1} % / {:.1} % ({:.2}), heading {:.2} / {:.2} deg/m ({:.2}): {}",
+             median {:.1} % / {:.1} % ({:.2}), p90 {:.1} % / {:.1} % ({:.2}), heading {:.2} / {:.2} deg/m ({:.2}),\n  \
+             real stretches within the twin's range over the seeds {:.0} % (expected {:.0} %): {}",
             d.real.median_pct,
             d.sim.median_pct,
             d.ratio.median_pct,
@@ -304,6 +348,8 @@ pub fn to_text(r: &Realism) -> String {
             d.real.heading_deg_per_m,
             d.sim.heading_deg_per_m,
             d.ratio.heading_deg_per_m,
+            100.0 * d.coverage,
+            100.0 * d.coverage_expected,
             if d.agrees { "agrees" } else { "DOES NOT AGREE" }
         );
     }
@@ -315,4 +361,22 @@ pub fn to_text(r: &Realism) -> String {
         );
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coverage_counts_real_stretches_inside_the_seeds_range() {
+        let real = [5.0, 9.0, 1.0, 4.0];
+        let seeds = vec![vec![4.0, 6.0, 2.0, 3.0], vec![6.0, 8.0, 3.0]];
+        // Stretch 0 inside [4, 6], 1 outside [6, 8], 2 outside [2, 3]; 3 not reached by
+        // every seed.
+        assert!((stretch_coverage(&real, &seeds) - 1.0 / 3.0).abs() < 1e-12);
+        // Seeds that all drift alike cover nothing that differs from them.
+        let same = vec![vec![4.0, 4.0, 4.0]; 10];
+        assert_eq!(stretch_coverage(&[5.0, 3.0, 4.5], &same), 0.0);
+        assert!(stretch_coverage(&real, &[]).is_nan());
+    }
 }

@@ -7,44 +7,151 @@
 //! Atrium's waypoint controller at the log's median moving speed (the real robot's speed
 //! profile and its stops are not replayed), the robot is the Pioneer-sized generic one
 //! whatever the real robot was, and unknown map cells are empty space.
+//!
+//! The twin's map is the log's map with every occupied cell within the generic robot's reach
+//! (plus [`PATH_CLEARANCE_MARGIN_M`]) of the reference path made free: the real robot drove
+//! there, so that space was free when it passed, but a map built over a whole run keeps
+//! people and doors that moved, and the generic robot may be wider than the real one. Without
+//! this, the twin's robot jams against such blobs and every later figure measures the jam.
 
 use crate::calibrate::{laser::LaserFit, odometry::OdometryFit};
 use crate::error::ScenarioError;
 use crate::log::{RealLog, LOG_LASER_LINK};
 use crate::scenario::Scenario;
-use atrium_robots::Pose2;
+use atrium_robots::{Pose2, RobotModel, Shape};
+use atrium_worlds::{Cell, OccupancyGrid};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Waypoints are taken every this much path of the reference, m.
-pub const WAYPOINT_SPACING_M: f64 = 1.0;
+/// The twin's route keeps within this distance of the reference path, m.
+pub const ROUTE_TOLERANCE_M: f64 = 0.05;
+/// The waypoint follower's goal tolerance in the twin, m: small, so that the robot passes
+/// where the reference passed (a loose one cuts corners by about its own size).
+pub const TWIN_GOAL_TOLERANCE_M: f64 = 0.15;
 /// Below this speed the reference counts as standing, m/s.
 const MOVING_M_S: f64 = 0.05;
 
-/// The twin's two files, as text.
+/// Clearance kept beyond the robot's reach around the reference path, m: the route's own
+/// tolerance and the follower's corner cutting (about its goal tolerance).
+pub const PATH_CLEARANCE_MARGIN_M: f64 = ROUTE_TOLERANCE_M + TWIN_GOAL_TOLERANCE_M;
+
+/// The twin's files: the scenario and the robot as text, and the map it names.
 #[derive(Debug, Clone)]
 pub struct Twin {
     pub toml: String,
     pub urdf: String,
+    /// The log's map with the reference path swept free (see the module doc); written as
+    /// `<stem>.map.yaml` and its PGM beside the twin.
+    pub map: OccupancyGrid,
+    /// How many occupied cells the sweep made free.
+    pub cleared_cells: usize,
 }
 
-/// The reference's waypoints: every [`WAYPOINT_SPACING_M`] of path, and its last pose.
-pub fn waypoints(reference: &[(f64, Pose2)]) -> Vec<[f64; 2]> {
-    let mut out = Vec::new();
-    let mut path = 0.0;
-    for w in reference.windows(2) {
-        path += w[0].1.distance(&w[1].1);
-        if path >= WAYPOINT_SPACING_M {
-            out.push([w[1].1.x, w[1].1.y]);
-            path = 0.0;
+/// The farthest any part of the robot reaches from its base frame's origin in the floor
+/// plane, m: chassis shapes, wheels and casters.
+pub fn planar_reach(model: &RobotModel) -> f64 {
+    let xy = |v: &nalgebra::Vector3<f64>| v.x.hypot(v.y);
+    let chassis = model.chassis_shapes.iter().map(|s| {
+        let half = match s.shape {
+            Shape::Box { size } => (0.5 * size[0]).hypot(0.5 * size[1]).max(0.5 * size[2]),
+            Shape::Cylinder { radius, length } => radius.max(0.5 * length),
+            Shape::Sphere { radius } => radius,
+        };
+        xy(&s.pose.translation.vector) + half
+    });
+    let wheels = [&model.left_wheel, &model.right_wheel]
+        .into_iter()
+        .map(|w| xy(&w.center) + w.radius.hypot(0.5 * w.width));
+    let casters = model.casters.iter().map(|c| xy(&c.center) + c.radius);
+    chassis.chain(wheels).chain(casters).fold(0.0, f64::max)
+}
+
+/// Makes every occupied cell within `radius` m of a pose of `path` free; returns how many.
+pub fn clear_along_path(grid: &mut OccupancyGrid, path: &[(f64, Pose2)], radius: f64) -> usize {
+    let res = grid.resolution;
+    let reach = (radius / res).ceil() as i64 + 1;
+    let mut cleared = 0;
+    let mut last: Option<Pose2> = None;
+    for (_, p) in path {
+        // Poses closer than half a cell to the last swept one add nothing.
+        if last.is_some_and(|l| l.distance(p) < 0.5 * res) {
+            continue;
+        }
+        last = Some(*p);
+        let ci = ((p.x - grid.origin[0]) / res).floor() as i64;
+        let cj = ((p.y - grid.origin[1]) / res).floor() as i64;
+        for j in (cj - reach).max(0)..=(cj + reach).min(grid.height as i64 - 1) {
+            for i in (ci - reach).max(0)..=(ci + reach).min(grid.width as i64 - 1) {
+                let c = grid.cell_center(i as usize, j as usize);
+                if (c[0] - p.x).hypot(c[1] - p.y) > radius {
+                    continue;
+                }
+                let k = grid.index(i as usize, j as usize);
+                if grid.cells[k] == Cell::Occupied {
+                    grid.cells[k] = Cell::Free;
+                    cleared += 1;
+                }
+            }
         }
     }
-    if let Some((_, last)) = reference.last() {
-        if path > 0.1 || out.is_empty() {
-            out.push([last.x, last.y]);
-        }
+    cleared
+}
+
+/// The reference's waypoints: its positions simplified by Douglas–Peucker, so that the
+/// straight lines between them stay within [`ROUTE_TOLERANCE_M`] of the path (a 180° loop
+/// keeps its shape, a straight corridor becomes one segment), plus its last pose.
+pub fn waypoints(reference: &[(f64, Pose2)]) -> Vec<[f64; 2]> {
+    let points: Vec<[f64; 2]> = reference.iter().map(|(_, p)| [p.x, p.y]).collect();
+    if points.is_empty() {
+        return Vec::new();
+    }
+    let keep = douglas_peucker(&points, ROUTE_TOLERANCE_M);
+    // The start is where the robot already stands.
+    let mut out: Vec<[f64; 2]> = keep.into_iter().skip(1).map(|k| points[k]).collect();
+    if out.is_empty() {
+        out.push(points[points.len() - 1]);
     }
     out
+}
+
+/// Distance of `p` from the segment `a`–`b`.
+fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let u = if len2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - u * dx).hypot(p[1] - a[1] - u * dy)
+}
+
+/// Indices of the points Douglas–Peucker keeps at tolerance `eps` (first and last always).
+pub fn douglas_peucker(points: &[[f64; 2]], eps: f64) -> Vec<usize> {
+    let n = points.len();
+    if n < 3 {
+        return (0..n).collect();
+    }
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    let mut stack = vec![(0, n - 1)];
+    while let Some((a, b)) = stack.pop() {
+        let (mut worst, mut at) = (0.0, a);
+        for k in a + 1..b {
+            let d = segment_distance(points[k], points[a], points[b]);
+            if d > worst {
+                worst = d;
+                at = k;
+            }
+        }
+        if worst > eps {
+            keep[at] = true;
+            stack.push((a, at));
+            stack.push((at, b));
+        }
+    }
+    (0..n).filter(|&k| keep[k]).collect()
 }
 
 /// The median speed of the reference while it moves, m/s.
@@ -112,27 +219,36 @@ pub fn twin(
     let stem = twin_file
         .file_stem()
         .map_or("twin".into(), |s| s.to_string_lossy().into_owned());
-    let urdf_file: PathBuf = twin_file.with_file_name(format!("{stem}.urdf"));
     let urdf = atrium_robots::generic_robot_urdf(&format!("{stem}_robot"), log.laser_mount_3());
+    let model = RobotModel::from_urdf_str(&urdf, "the twin's generic robot")
+        .map_err(|e| ScenarioError::field(twin_file, "robot", e.to_string()))?;
+    let clearance = planar_reach(&model) + PATH_CLEARANCE_MARGIN_M;
+    let mut grid = (*map.grid).clone();
+    let cleared_cells = clear_along_path(&mut grid, &log.reference, clearance);
 
     let start = log.start_pose();
     let route = waypoints(&log.reference);
     let speed = moving_speed(&log.reference);
-    let map_abs = map.file.canonicalize().unwrap_or(map.file.clone());
     let mut t = String::new();
     let _ = writeln!(
         t,
         "# The twin of {} (written by `atrium twin`): the same run simulated, with the models\n\
-         # calibrated from the log. Route: the reference every {WAYPOINT_SPACING_M} m, driven at \
-         the log's\n# median moving speed ({speed:.2} m/s).",
-        scenario.file.display()
+         # calibrated from the log. Route: the reference within {ROUTE_TOLERANCE_M} m, driven at \
+         the log's\n# median moving speed ({speed:.2} m/s). Map: {}, with {cleared_cells} occupied \
+         cells within\n# {clearance:.2} m of the reference path made free.",
+        scenario.file.display(),
+        map.file.display(),
     );
     let _ = writeln!(
         t,
         "name = {}",
         toml::Value::String(format!("{}_twin", scenario.name))
     );
-    let _ = writeln!(t, "map = {}", toml_path(&map_abs));
+    let _ = writeln!(
+        t,
+        "map = {}",
+        toml_path(Path::new(&format!("{stem}.map.yaml")))
+    );
     let _ = writeln!(
         t,
         "robot = {}",
@@ -150,11 +266,10 @@ pub fn twin(
         let _ = writeln!(t, "  [{:.3}, {:.3}],", w[0], w[1]);
     }
     let _ = writeln!(t, "]");
-    // A looser goal and a quicker turn than the defaults: at a real robot's speed the
-    // default follower orbits a waypoint it passes within a metre of.
+    // A quicker turn than the default, for a real robot's turns at its speed.
     let _ = writeln!(
         t,
-        "\n[controller]\nmax_speed = {speed:.3}\ngoal_tolerance = 0.3\nmax_turn_rate = 2.0"
+        "\n[controller]\nmax_speed = {speed:.3}\ngoal_tolerance = {TWIN_GOAL_TOLERANCE_M}\nmax_turn_rate = 2.0"
     );
     let _ = writeln!(
         t,
@@ -205,8 +320,12 @@ pub fn twin(
     let rest = toml::to_string(&rest)
         .map_err(|e| ScenarioError::field(&scenario.file, "localizers", e.to_string()))?;
     let _ = writeln!(t, "\n{rest}");
-    let _ = urdf_file;
-    Ok(Twin { toml: t, urdf })
+    Ok(Twin {
+        toml: t,
+        urdf,
+        map: grid,
+        cleared_cells,
+    })
 }
 
 #[cfg(test)]
@@ -214,13 +333,71 @@ mod tests {
     use super::*;
 
     #[test]
-    fn waypoints_follow_the_path_every_metre() {
-        let r: Vec<(f64, Pose2)> = (0..=50)
+    fn waypoints_keep_the_path_s_shape() {
+        // 5 m straight, then a half circle of radius 0.5 m back.
+        let mut r: Vec<(f64, Pose2)> = (0..=50)
             .map(|k| (k as f64, Pose2::new(0.1 * k as f64, 0.0, 0.0)))
             .collect();
+        for k in 1..=30 {
+            let a = std::f64::consts::PI * k as f64 / 30.0 - std::f64::consts::FRAC_PI_2;
+            r.push((
+                50.0 + k as f64,
+                Pose2::new(5.0 + 0.5 * a.cos(), 0.5 + 0.5 * a.sin(), 0.0),
+            ));
+        }
         let w = waypoints(&r);
-        assert_eq!(w.len(), 5);
-        assert!((w[0][0] - 1.0).abs() < 1e-9 && (w[4][0] - 5.0).abs() < 1e-9);
-        assert!((moving_speed(&r) - 0.1).abs() < 1e-9);
+        // The straight part is one segment; the half circle needs several.
+        assert!(
+            (w[0][0] - 5.0).abs() < 0.11 && w[0][1].abs() < ROUTE_TOLERANCE_M,
+            "{w:?}"
+        );
+        assert!((5..15).contains(&w.len()), "{w:?}");
+        let last = w[w.len() - 1];
+        assert!((last[0] - 5.0).abs() < 1e-9 && (last[1] - 1.0).abs() < 1e-9);
+        // Every reference point is within the tolerance of the route.
+        let mut route = vec![[0.0, 0.0]];
+        route.extend(&w);
+        for (_, p) in &r {
+            let d = route
+                .windows(2)
+                .map(|s| segment_distance([p.x, p.y], s[0], s[1]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d <= ROUTE_TOLERANCE_M + 1e-9, "{p:?} {d}");
+        }
+        let straight: Vec<(f64, Pose2)> = r[..=50].to_vec();
+        assert!((moving_speed(&straight) - 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_path_is_swept_free_and_nothing_else() {
+        // A 2 m × 1 m grid at 0.1 m, all occupied; a path along y = 0.5 from x = 0.5 to 1.5.
+        let mut g = OccupancyGrid {
+            origin: [0.0, 0.0],
+            resolution: 0.1,
+            width: 20,
+            height: 10,
+            cells: vec![Cell::Occupied; 200],
+        };
+        let path: Vec<(f64, Pose2)> = (0..=10)
+            .map(|k| (k as f64, Pose2::new(0.5 + 0.1 * k as f64, 0.5, 0.0)))
+            .collect();
+        let n = clear_along_path(&mut g, &path, 0.2);
+        assert_eq!(g.at([1.0, 0.5]), Cell::Free);
+        assert_eq!(g.at([0.36, 0.5]), Cell::Free);
+        assert_eq!(g.at([1.0, 0.85]), Cell::Occupied);
+        assert_eq!(g.at([0.15, 0.5]), Cell::Occupied);
+        let free = g.cells.iter().filter(|c| **c == Cell::Free).count();
+        assert_eq!(n, free);
+        // A band 1 m long and 0.4 m wide with round ends: about 0.4 + π·0.04 m² of 0.01 m².
+        assert!((45..=60).contains(&n), "{n}");
+    }
+
+    #[test]
+    fn the_generic_robot_reaches_a_pioneer_s_half_diagonal() {
+        let urdf = atrium_robots::generic_robot_urdf("r", Pose2::new(0.0, 0.0, 0.0));
+        let m = RobotModel::from_urdf_str(&urdf, "generic").unwrap();
+        let r = planar_reach(&m);
+        // The Pioneer 3-DX is 0.455 m × 0.381 m (about 0.30 m from centre to corner).
+        assert!((0.25..0.4).contains(&r), "{r}");
     }
 }
