@@ -1,7 +1,7 @@
 //! `atrium calibrate`, `twin` and `realism` on a bundled real log, cut short: the calibration
 //! writes tables a scenario accepts, the twin loads and drives, and the realism report has
-//! its interface fields; with the old systematic-only odometry (no random slip) the twin's
-//! drift does not vary, and its agreement with the real drift's spread fails.
+//! its interface fields and its drift agrees with the real one; with the old systematic-only
+//! odometry (no random slip) the twin's drift does not vary, and the same check fails.
 
 mod common;
 
@@ -128,4 +128,32 @@ fn calibrate_twin_and_realism_on_a_real_log() {
         "the twin's drift is the same on every seed: {r}"
     );
     assert!(out.join("realism.json").is_file() && out.join("twin.toml").is_file());
+    // The calibrated model's drift agrees with the real one: median, p90 and heading within
+    // 0.67-1.5, and the real stretches fall within the seeds' range about as often as draws
+    // of one process would.
+    assert_eq!(r["drift"]["agrees"], true, "{}", r["drift"]);
+    let covered = r["drift"]["coverage"].as_f64().unwrap();
+
+    // Atrium's old odometry (systematic errors only) drifts alike on every seed: the same
+    // check fails on it.
+    let o = atrium(&[
+        "realism",
+        s,
+        "--seeds",
+        "1..3",
+        "--json",
+        "--systematic-only",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let d = &r["drift"];
+    assert_eq!(d["agrees"], false, "{d}");
+    let spread = d["sim_spread"]["median_pct"].as_array().unwrap();
+    assert_eq!(spread[0], spread[1], "{d}");
+    assert!(d["coverage"].as_f64().unwrap() < covered, "{d}");
 }

@@ -495,6 +495,12 @@ impl RealLog {
                 ),
             ));
         }
+        // A cut run ends at `duration_s`: so does what it is scored against, calibrated
+        // against and what its twin drives.
+        let mut reference = reference;
+        if let Some(d) = duration_s {
+            reference.retain(|(t, _)| *t <= d);
+        }
         let half_period = 0.5 / laser.rate_hz.max(1e-3);
         let unscored_scans = scans
             .iter()
