@@ -1,7 +1,7 @@
 //! Output files are written under a temporary name and renamed when complete, so an
 //! interrupted run never leaves a half-written file under the final name.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub use crate::atomic::{remove_unfinished, write_atomic, Unfinished};
 
@@ -67,7 +67,7 @@ pub fn write_run(
     std::fs::create_dir_all(dir)
         .map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     let mut written = Vec::new();
-    let mut put = |name: String, bytes: Vec<u8>| -> Result<(), String> {
+    let put = |written: &mut Vec<PathBuf>, name: String, bytes: Vec<u8>| -> Result<(), String> {
         let p = dir.join(name);
         write_atomic(&p, &bytes).map_err(|e| format!("{}: cannot write file: {e}", p.display()))?;
         written.push(p);
@@ -85,30 +85,41 @@ pub fn write_run(
     } else {
         "ground_truth.tum"
     };
-    put(truth_name.into(), tum(&run.ground_truth))?;
+    put(&mut written, truth_name.into(), tum(&run.ground_truth))?;
     for l in &run.localizers {
-        put(format!("{}.tum", l.name), tum(&l.trajectory))?;
-        put(
-            format!("trajectory_{}.svg", l.name),
-            crate::plot::svg(world, run, l).into_bytes(),
-        )?;
-        put(
-            format!("trajectory_{}.png", l.name),
-            crate::plot::png(world, run, l)?,
-        )?;
+        put(&mut written, format!("{}.tum", l.name), tum(&l.trajectory))?;
+        let fig = crate::plot::trajectory_figure(world, run, l)
+            .map_err(|e| format!("trajectory_{}: {e}", l.name))?;
+        write_figure(&mut written, dir, &format!("trajectory_{}", l.name), &fig)?;
         if let Some(log) = &l.log {
-            put(format!("log_{}.txt", l.name), log.clone().into_bytes())?;
+            put(
+                &mut written,
+                format!("log_{}.txt", l.name),
+                log.clone().into_bytes(),
+            )?;
         }
         if let Some(slam) = &l.slam {
-            for (name, bytes) in crate::slam_plot::pictures(world, run, l, slam)? {
-                put(name, bytes)?;
+            let figs = crate::slam_plot::figures(world, run, l, slam)
+                .map_err(|e| format!("slam_{}: {e}", l.name))?;
+            for (stem, fig) in figs {
+                write_figure(&mut written, dir, &stem, &fig)?;
             }
         }
     }
     let json =
         serde_json::to_string_pretty(&crate::report::to_json(run)).map_err(|e| e.to_string())?;
-    put("metrics.json".into(), json.into_bytes())?;
+    put(&mut written, "metrics.json".into(), json.into_bytes())?;
     Ok(written)
+}
+
+fn write_figure(
+    written: &mut Vec<PathBuf>,
+    dir: &Path,
+    stem: &str,
+    fig: &crate::figure::Figure,
+) -> Result<(), String> {
+    written.extend(fig.write(dir, stem).map_err(|e| e.to_string())?);
+    Ok(())
 }
 
 /// Writes the map of `world` a localizer may know: `format` "ros" gives `output` (YAML) and a

@@ -38,9 +38,32 @@ pub struct MapCells {
     /// The colour bar's label, with the unit: "mean position error (m)".
     pub label: String,
     pub scale: ColourScale,
+    /// When not empty, the values are indices into this list of (name, colour) — e.g. the
+    /// best localizer per cell — shown in the legend instead of a colour bar.
+    pub categories: Vec<(String, Rgb)>,
 }
 
 impl MapCells {
+    /// Cells naming a category each (`values` hold indices into `categories`).
+    pub fn categorical(
+        origin: [f64; 2],
+        resolution: f64,
+        (width, height): (usize, usize),
+        values: Vec<Option<usize>>,
+        categories: Vec<(String, Rgb)>,
+    ) -> MapCells {
+        MapCells {
+            origin,
+            resolution,
+            width,
+            height,
+            values: values.into_iter().map(|v| v.map(|v| v as f64)).collect(),
+            label: String::new(),
+            scale: ColourScale::auto([0.0, 1.0], false),
+            categories,
+        }
+    }
+
     /// Cells with a viridis scale over their values, logarithmic when `log` (and all > 0).
     pub fn new(
         origin: [f64; 2],
@@ -59,6 +82,7 @@ impl MapCells {
             values,
             label: label.into(),
             scale,
+            categories: Vec::new(),
         }
     }
 }
@@ -306,7 +330,8 @@ struct Layout {
 
 impl Layout {
     fn new(m: &MapFigure<'_>, mut lo: [f64; 2], mut hi: [f64; 2]) -> Layout {
-        let bar = m.cells.is_some() || m.value_path.is_some();
+        let bar =
+            m.cells.as_ref().is_some_and(|c| c.categories.is_empty()) || m.value_path.is_some();
         let plot_w = (WIDTH - LEFT - 2 * MARGIN - if bar { BAR_W } else { 30 }) as f64;
         let (dx, dy) = (hi[0] - lo[0], hi[1] - lo[1]);
         let want_h = plot_w * dy / dx;
@@ -348,6 +373,11 @@ impl MapDraw<'_, '_> {
                 }
             }
             MapBase::Grid(_) => out.push(("occupied (map)".into(), Swatch::Fill(WALL))),
+        }
+        if let Some(c) = &m.cells {
+            for (name, colour) in &c.categories {
+                out.push((name.clone(), Swatch::Fill(*colour)));
+            }
         }
         for p in &m.paths {
             let sw = if p.dashed {
@@ -491,6 +521,16 @@ fn draw_cells<DB: DrawingBackend>(
 ) -> Result<(), FigureError> {
     let k = block(c.resolution, px_per_m);
     let size = k as f64 * c.resolution;
+    let categorical = !c.categories.is_empty();
+    let colour = |v: f64| -> Rgb {
+        if categorical {
+            c.categories
+                .get(v.round().max(0.0) as usize)
+                .map_or([200, 200, 200], |x| x.1)
+        } else {
+            c.scale.colour(v)
+        }
+    };
     let mut rects = Vec::new();
     for bj in 0..c.height.div_ceil(k) {
         for bi in 0..c.width.div_ceil(k) {
@@ -498,7 +538,7 @@ fn draw_cells<DB: DrawingBackend>(
             for j in bj * k..((bj + 1) * k).min(c.height) {
                 for i in bi * k..((bi + 1) * k).min(c.width) {
                     if let Some(v) = c.values.get(j * c.width + i).copied().flatten() {
-                        if v.is_finite() {
+                        if v.is_finite() && !(categorical && n > 0) {
                             sum += v;
                             n += 1;
                         }
@@ -516,7 +556,7 @@ fn draw_cells<DB: DrawingBackend>(
         .draw_series(
             rects
                 .iter()
-                .map(|(r, v)| Rectangle::new(*r, rgb(c.scale.colour(*v)).filled())),
+                .map(|(r, v)| Rectangle::new(*r, rgb(colour(*v)).filled())),
         )
         .map_err(draw_err)?;
     Ok(())
@@ -660,14 +700,16 @@ impl Draw for MapDraw<'_, '_> {
         let bar_scale = m
             .cells
             .as_ref()
+            .filter(|c| c.categories.is_empty())
             .map(|c| (c.scale, c.label.clone()))
             .or_else(|| {
                 m.value_path
                     .as_ref()
                     .map(|v| (v.scale, v.colour_label.clone()))
             });
-        if let (Some(v), Some((scale, _))) = (&m.value_path, &bar_scale) {
-            draw_value_path(&mut chart, v, scale)?;
+        if let Some(v) = &m.value_path {
+            let scale = bar_scale.as_ref().map_or(v.scale, |b| b.0);
+            draw_value_path(&mut chart, v, &scale)?;
         }
         for s in &m.shapes {
             let col = rgb(s.colour);
