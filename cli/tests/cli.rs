@@ -110,6 +110,20 @@ fn out_writes_trajectories_metrics_and_pictures() {
     assert_eq!(first.len(), 8);
     let png = std::fs::read(dir.join("trajectory_mcl.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // Wide enough to read (IHDR width, big-endian, at byte 16).
+    assert!(u32::from_be_bytes([png[16], png[17], png[18], png[19]]) >= 1600);
+    // The picture names scenario, localizer and seed, its axes and colour bar have units.
+    let svg = std::fs::read_to_string(dir.join("trajectory_mcl.svg")).unwrap();
+    for text in [
+        "short: mcl (mcl), seed",
+        "x (m)",
+        "y (m)",
+        "position error (m)",
+        "ground truth",
+        "mcl estimate",
+    ] {
+        assert!(svg.contains(text), "{text:?} not in the SVG");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

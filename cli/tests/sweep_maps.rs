@@ -9,9 +9,9 @@ use atrium_experiments::sweep::csv::{Results, Row};
 use atrium_experiments::sweep::heatmap::{self, AxisLabels};
 use atrium_experiments::sweep::{self, Sweep, SweepSettings};
 use atrium_localization::error_map::ErrorMap;
+use atrium_scenarios::figure::ColourScale;
 use common::{atrium, tmpdir};
 use std::path::{Path, PathBuf};
-use tiny_skia::Pixmap;
 
 fn row(cell: usize, trial: usize, loc: &str, median: f64) -> Row {
     let mut values: Vec<String> = vec![String::new(); 9];
@@ -31,11 +31,6 @@ fn axis(path: &str, values: &[&str]) -> AxisLabels {
         path: path.into(),
         values: values.iter().map(|s| s.to_string()).collect(),
     }
-}
-
-fn rgb(pm: &Pixmap, (x, y): (u32, u32)) -> [u8; 3] {
-    let p = pm.pixel(x + 3, y + 3).expect("inside the picture");
-    [p.red(), p.green(), p.blue()]
 }
 
 #[test]
@@ -69,29 +64,43 @@ fn heat_maps_have_one_cell_per_axis_value_and_hotter_is_larger() {
     };
     let pics = heatmap::heatmaps(&results, &axes).unwrap().pictures;
     let names: Vec<&str> = pics.iter().map(|(n, _)| n.as_str()).collect();
-    assert_eq!(names, ["heatmap_mcl_c=p.png", "heatmap_mcl_c=q.png"]);
-    let q = Pixmap::decode_png(&pics[1].1).expect("valid PNG");
-    let title = heatmap::title("mcl", &["c = q".to_string()]);
-    let (w, h, _, _) = heatmap::size(&axes, &title);
-    assert_eq!((q.width(), q.height()), (w, h));
-    // Slice c = q holds cells 1, 3, 5, 7: (a, b) = (1,x), (1,y), (2,x), (2,y).
-    let hot = rgb(&q, heatmap::cell_origin(&axes, &title, 1, 1));
-    let cold = rgb(&q, heatmap::cell_origin(&axes, &title, 0, 0));
+    assert_eq!(names, ["heatmap_mcl_c=p", "heatmap_mcl_c=q"]);
+    let q = &pics[1].1;
     assert_eq!(
-        hot,
-        heatmap::heat_colour(1.0),
-        "largest error: hottest colour"
+        q.title(),
+        heatmap::title("t", "mcl", &["c = q".to_string()])
     );
-    assert_eq!(
-        cold,
-        heatmap::heat_colour(0.0),
-        "smallest error: coldest colour"
+    assert!(q.size().0 >= 1600);
+    // Slice c = q holds cells 1, 3, 5, 7: (a, b) = (1,x), (1,y), (2,x), (2,y), medians
+    // 0.2, 0.4, 0.6 and 5 m: the largest is the brightest viridis colour, the smallest the
+    // darkest, and each cell carries its value as text.
+    let cells = big_rects(q.svg());
+    let s = ColourScale::auto([0.2, 5.0], true);
+    assert!(
+        cells.contains(&hex(s.colour(5.0))),
+        "largest error: brightest colour"
     );
-    let mid = rgb(&q, heatmap::cell_origin(&axes, &title, 1, 0));
-    let t = heatmap::scale_t(0.6, 0.2, 5.0);
-    assert_eq!(mid, heatmap::heat_colour(t));
+    assert!(
+        cells.contains(&hex(s.colour(0.2))),
+        "smallest error: darkest colour"
+    );
+    assert!(cells.contains(&hex(s.colour(0.6))));
+    for v in [
+        "0.2",
+        "0.4",
+        "0.6",
+        "5",
+        "median position error (m)",
+        "a",
+        "b",
+    ] {
+        assert!(
+            q.svg().contains(&format!("\n{v}\n</text>")),
+            "no text {v:?}"
+        );
+    }
 
-    // One axis: a strip one cell high.
+    // One axis: a strip one cell high, a cell without results grey and marked.
     let strip = vec![axis("a", &["1", "2", "3"])];
     let r1 = Results {
         axis_paths: vec!["a".into()],
@@ -100,21 +109,34 @@ fn heat_maps_have_one_cell_per_axis_value_and_hotter_is_larger() {
     };
     let pics = heatmap::heatmaps(&r1, &strip).unwrap().pictures;
     assert_eq!(pics.len(), 1);
-    let p = Pixmap::decode_png(&pics[0].1).unwrap();
-    let title = heatmap::title("w", &[]);
-    assert_eq!((p.width(), p.height()), {
-        let (w, h, _, _) = heatmap::size(&strip, &title);
-        (w, h)
-    });
-    assert_eq!(
-        rgb(&p, heatmap::cell_origin(&strip, &title, 1, 0)),
-        [225, 225, 225],
+    let svg = pics[0].1.svg();
+    assert!(
+        big_rects(svg).contains(&"#E1E1E1".to_string()),
         "a cell without results is grey"
     );
-    assert_eq!(
-        rgb(&p, heatmap::cell_origin(&strip, &title, 2, 0)),
-        heatmap::heat_colour(1.0)
-    );
+    assert!(svg.contains("no data"));
+    let s = ColourScale::auto([1.0, 2.0], true);
+    assert!(big_rects(svg).contains(&hex(s.colour(2.0))));
+}
+
+fn hex(c: [u8; 3]) -> String {
+    format!("#{:02X}{:02X}{:02X}", c[0], c[1], c[2])
+}
+
+/// Fill colours of the SVG's filled rectangles taller than 20 units (cells, not the colour
+/// bar's one-unit stripes).
+fn big_rects(svg: &str) -> Vec<String> {
+    svg.split("<rect")
+        .skip(1)
+        .filter_map(|r| {
+            let attr = |name: &str| {
+                let k = r.find(&format!(" {name}=\""))? + name.len() + 3;
+                Some(r[k..k + r[k..].find('"')?].to_string())
+            };
+            let h: f64 = attr("height")?.parse().ok()?;
+            (h > 20.0).then(|| attr("fill")).flatten()
+        })
+        .collect()
 }
 
 fn data(name: &str) -> PathBuf {
@@ -163,14 +185,19 @@ fn error_maps_agree_across_shards_and_resume_and_show_figure_2() {
         "error_map_laser.png",
         "error_map_wifi.png",
         "error_map_best.png",
+        "error_map_best.svg",
+        "error_map_laser.svg",
         "heatmap_laser.png",
+        "heatmap_laser.svg",
         "maps/c0_t0.csv",
         "maps/c0_t1.csv",
     ] {
         assert!(whole.join(f).is_file(), "{f} missing");
     }
     let png = std::fs::read(whole.join("error_map_best.png")).unwrap();
-    Pixmap::decode_png(&png).expect("valid PNG");
+    assert_eq!(&png[1..4], b"PNG");
+    let svg = std::fs::read_to_string(whole.join("error_map_laser.svg")).unwrap();
+    assert!(svg.contains("mean position error (m)") && svg.contains("x (m)"));
 
     let (s0, s1, merged) = (d.join("s0"), d.join("s1"), d.join("merged"));
     sweep::run_sweep(&s, &settings(&s0, Some((0, 2)), false)).unwrap();

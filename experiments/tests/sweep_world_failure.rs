@@ -238,18 +238,18 @@ fn reduced_atrium_sweep_writes_failure_curves_over_generated_worlds() {
         "{summary}"
     );
 
-    // The picture: one colour per localizer.
-    let pm =
-        tiny_skia::Pixmap::load_png(out.join("failure_world.atrium_width_duration_s=80.0.png"))
-            .unwrap();
-    for rgb in &atrium_experiments::sweep::failure::PALETTE[..2] {
-        assert!(
-            pm.pixels()
-                .iter()
-                .any(|p| [p.red(), p.green(), p.blue()] == *rgb && p.alpha() == 255),
-            "colour {rgb:?} missing"
-        );
+    // The picture, as PNG and SVG: one colour per localizer, the threshold labelled.
+    assert!(out
+        .join("failure_world.atrium_width_duration_s=80.0.png")
+        .is_file());
+    let svg = std::fs::read_to_string(out.join("failure_world.atrium_width_duration_s=80.0.svg"))
+        .unwrap();
+    for k in 0..2 {
+        let c = atrium_scenarios::figure::colour::line_colour(k);
+        let hex = format!("#{:02X}{:02X}{:02X}", c[0], c[1], c[2]);
+        assert!(svg.contains(&hex), "colour {hex} missing");
     }
+    assert!(svg.contains("failure threshold"), "threshold unlabelled");
 }
 
 #[test]

@@ -6,8 +6,10 @@
 //! Modules depend one way, in this order: the format (`error`, `seeds`, `trajectory`, `scenario`,
 //! `camera_sensors`, `route_jitter`, `node_route`) → expectations (`verdict`, `metrics`,
 //! `relations`, `slam`, `expect`) → `runner` → `maps` and `registry` → `builtins` and `error_maps` →
-//! reports (`report`, `output`, `plot`, `slam_plot`).
+//! reports (`report`, `output`, `plot`, `slam_plot`), drawn with `figure`; files are
+//! written through `atomic`.
 
+pub mod atomic;
 pub mod builtins;
 pub mod calibrate;
 pub mod camera_sensors;
@@ -15,6 +17,7 @@ pub mod disk_cache;
 pub mod error;
 pub mod error_maps;
 pub mod expect;
+pub mod figure;
 pub mod grid_map;
 pub mod load_cache;
 pub mod log;

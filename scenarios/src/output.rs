@@ -1,82 +1,9 @@
 //! Output files are written under a temporary name and renamed when complete, so an
 //! interrupted run never leaves a half-written file under the final name.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, OnceLock};
 
-/// Files being written under a temporary name right now. The CLI's interrupt handler removes
-/// them ([`remove_unfinished`]), so Ctrl-C or a `kill` never leaves a half-written file behind.
-fn unfinished() -> &'static Mutex<Vec<PathBuf>> {
-    static FILES: OnceLock<Mutex<Vec<PathBuf>>> = OnceLock::new();
-    FILES.get_or_init(|| Mutex::new(Vec::new()))
-}
-
-/// Registers a temporary file for removal on interrupt for as long as the guard lives; drop it
-/// once the file is renamed to its final name or removed.
-#[derive(Debug)]
-pub struct Unfinished {
-    path: PathBuf,
-}
-
-impl Unfinished {
-    pub fn register(path: &Path) -> Unfinished {
-        let path = path.to_path_buf();
-        lock(unfinished()).push(path.clone());
-        Unfinished { path }
-    }
-}
-
-impl Drop for Unfinished {
-    fn drop(&mut self) {
-        let mut files = lock(unfinished());
-        if let Some(i) = files.iter().position(|p| *p == self.path) {
-            files.swap_remove(i);
-        }
-    }
-}
-
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
-
-/// Removes every registered temporary file and returns those that existed. Called when the
-/// process is interrupted; writers may still hold them open (on Unix the data goes to an
-/// unlinked file), and a rename racing with this finds the name gone or the final file whole.
-pub fn remove_unfinished() -> Vec<PathBuf> {
-    let files = std::mem::take(&mut *lock(unfinished()));
-    files
-        .into_iter()
-        .filter(|p| std::fs::remove_file(p).is_ok())
-        .collect()
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
-/// final name never holds a partial file. The temporary name is unique per process and call
-/// (threads of a sweep write at once).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::other(format!("{}: not a file path", path.display())))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    static CALLS: AtomicU64 = AtomicU64::new(0);
-    let call = CALLS.fetch_add(1, Ordering::Relaxed);
-    tmp_name.push(format!(".{}-{call}.tmp", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let _unfinished = Unfinished::register(&tmp);
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
+pub use crate::atomic::{remove_unfinished, write_atomic, Unfinished};
 
 /// Checks, before a long run, that `dir` can be written: it is a folder (or can be created
 /// as one: its nearest existing ancestor is a folder) and a file can be created in it.
@@ -140,7 +67,7 @@ pub fn write_run(
     std::fs::create_dir_all(dir)
         .map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     let mut written = Vec::new();
-    let mut put = |name: String, bytes: Vec<u8>| -> Result<(), String> {
+    let put = |written: &mut Vec<PathBuf>, name: String, bytes: Vec<u8>| -> Result<(), String> {
         let p = dir.join(name);
         write_atomic(&p, &bytes).map_err(|e| format!("{}: cannot write file: {e}", p.display()))?;
         written.push(p);
@@ -158,30 +85,41 @@ pub fn write_run(
     } else {
         "ground_truth.tum"
     };
-    put(truth_name.into(), tum(&run.ground_truth))?;
+    put(&mut written, truth_name.into(), tum(&run.ground_truth))?;
     for l in &run.localizers {
-        put(format!("{}.tum", l.name), tum(&l.trajectory))?;
-        put(
-            format!("trajectory_{}.svg", l.name),
-            crate::plot::svg(world, run, l).into_bytes(),
-        )?;
-        put(
-            format!("trajectory_{}.png", l.name),
-            crate::plot::png(world, run, l)?,
-        )?;
+        put(&mut written, format!("{}.tum", l.name), tum(&l.trajectory))?;
+        let fig = crate::plot::trajectory_figure(world, run, l)
+            .map_err(|e| format!("trajectory_{}: {e}", l.name))?;
+        write_figure(&mut written, dir, &format!("trajectory_{}", l.name), &fig)?;
         if let Some(log) = &l.log {
-            put(format!("log_{}.txt", l.name), log.clone().into_bytes())?;
+            put(
+                &mut written,
+                format!("log_{}.txt", l.name),
+                log.clone().into_bytes(),
+            )?;
         }
         if let Some(slam) = &l.slam {
-            for (name, bytes) in crate::slam_plot::pictures(world, run, l, slam)? {
-                put(name, bytes)?;
+            let figs = crate::slam_plot::figures(world, run, l, slam)
+                .map_err(|e| format!("slam_{}: {e}", l.name))?;
+            for (stem, fig) in figs {
+                write_figure(&mut written, dir, &stem, &fig)?;
             }
         }
     }
     let json =
         serde_json::to_string_pretty(&crate::report::to_json(run)).map_err(|e| e.to_string())?;
-    put("metrics.json".into(), json.into_bytes())?;
+    put(&mut written, "metrics.json".into(), json.into_bytes())?;
     Ok(written)
+}
+
+fn write_figure(
+    written: &mut Vec<PathBuf>,
+    dir: &Path,
+    stem: &str,
+    fig: &crate::figure::Figure,
+) -> Result<(), String> {
+    written.extend(fig.write(dir, stem).map_err(|e| e.to_string())?);
+    Ok(())
 }
 
 /// Writes the map of `world` a localizer may know: `format` "ros" gives `output` (YAML) and a

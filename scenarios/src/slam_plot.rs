@@ -9,71 +9,59 @@
 //! - `min_mean_max`: per cluster pair, the pairs with the smallest and largest value and the
 //!   mean P_d, at the midpoint of the two cluster centroids (Fig. 5, 8).
 //!
-//! One frame per snapshot the filter kept (`frames_s`, then the final state), each as SVG
-//! (with legend) and PNG: `slam_<localizer>_<mode>_<frame>.svg` / `.png`. Ellipses are 95 %
-//! ellipses (2.45 σ) magnified by one factor per run, stated in the legend, so that frames
-//! of a run compare directly. Pairs the monitor had flagged by a frame's time are red.
+//! One frame per snapshot the filter kept (`frames_s`, then the final state), each a
+//! [`crate::figure`] map (axes in metres, scale bar, legend) written as SVG and PNG:
+//! `slam_<localizer>_<mode>_<frame>.svg` / `.png`. Ellipses are 95 % ellipses (2.45 σ)
+//! magnified by one factor per run, stated in the legend, so that frames of a run compare
+//! directly. Pairs the monitor had flagged by a frame's time are vermillion.
 
+use crate::figure::colour::OKABE_ITO;
+use crate::figure::{map_figure, Figure, FigureError, MapBase, MapFigure, MapPath, MapShape, Rgb};
 use crate::runner::{LocalizerRun, RunResult};
 use crate::slam::SlamRun;
 use atrium_localization::covariance_monitor::{
     largest_eigenvalue, relative_covariance, single_linkage,
 };
 use atrium_localization::ekf_slam::SlamSnapshot;
-use atrium_worlds::geometry::wall_corners;
-use atrium_worlds::{LaserBehaviour, World};
-use std::fmt::Write;
+use atrium_worlds::World;
 
 /// √χ²₂(0.95): the 95 % ellipse of a 2-D Gaussian is 2.45 σ along each principal axis.
 const K95: f64 = 2.447_746_830_680_816;
-/// Pixels of the larger side of the drawn area.
-const TARGET_PX: f64 = 900.0;
+/// Pixels of the larger side of the drawn area (about: the figure keeps metres square).
+const TARGET_PX: f64 = 1300.0;
 const MARGIN_M: f64 = 0.6;
-const LEGEND_PX: f64 = 54.0;
 
 pub const MODES: [&str; 3] = ["all_pairs", "inter_cluster", "min_mean_max"];
 
-#[derive(Debug, Clone)]
-enum Item {
-    /// Filled polygon, world coordinates.
-    Poly { pts: Vec<[f64; 2]>, rgba: [u8; 4] },
-    /// Open polyline.
-    Line {
-        pts: Vec<[f64; 2]>,
-        rgba: [u8; 4],
-        width: f64,
-    },
-    /// Circle of radius `r` m, at least `min_px` pixels.
-    Disc {
-        c: [f64; 2],
-        r: f64,
-        min_px: f64,
-        rgba: [u8; 4],
-    },
-    /// Ellipse outline: semi-axes (m) and the major axis' angle.
-    Ellipse {
-        c: [f64; 2],
-        a: f64,
-        b: f64,
-        angle: f64,
-        rgba: [u8; 4],
-        width: f64,
-    },
+/// What an ellipse of P_d stands for, and so its colour and legend line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum PairKind {
+    Pair,
+    Flagged,
+    Smallest,
+    Mean,
+    Largest,
 }
 
-struct View {
-    min: [f64; 2],
-    scale: f64,
-    width: f64,
-    height: f64,
-}
+impl PairKind {
+    fn colour(self) -> Rgb {
+        match self {
+            PairKind::Pair => OKABE_ITO[0],
+            PairKind::Flagged | PairKind::Largest => OKABE_ITO[1],
+            PairKind::Smallest => OKABE_ITO[2],
+            PairKind::Mean => OKABE_ITO[3],
+        }
+    }
 
-impl View {
-    fn px(&self, p: [f64; 2]) -> (f64, f64) {
-        (
-            (p[0] - self.min[0]) * self.scale,
-            self.height - LEGEND_PX - (p[1] - self.min[1]) * self.scale,
-        )
+    fn label(self, mag: f64) -> String {
+        let m = crate::figure::format_number(mag);
+        match self {
+            PairKind::Pair => format!("95 % ellipse of P_d ×{m}"),
+            PairKind::Flagged => "pair flagged by the monitor".into(),
+            PairKind::Smallest => format!("smallest P_d ×{m}"),
+            PairKind::Mean => format!("mean P_d ×{m}"),
+            PairKind::Largest => format!("largest P_d ×{m}"),
+        }
     }
 }
 
@@ -115,16 +103,16 @@ fn pair_ellipses(
     mode: &str,
     cluster_distance: f64,
     flagged: &[(usize, usize)],
-) -> Vec<([f64; 2], [f64; 3], [u8; 4])> {
+) -> Vec<([f64; 2], [f64; 3], PairKind)> {
     let n = snap.features();
     let feats: Vec<[f64; 2]> = (0..n).map(|k| snap.feature(k)).collect();
     let cov = snap.map_cov();
     let labels = single_linkage(&feats, cluster_distance);
     let colour = |i: usize, j: usize| {
         if flagged.contains(&(i, j)) {
-            [220, 30, 30, 230]
+            PairKind::Flagged
         } else {
-            [40, 90, 200, 170]
+            PairKind::Pair
         }
     };
     let mut out = Vec::new();
@@ -185,9 +173,9 @@ fn pair_ellipses(
                     }
                     let at = mid(centroid(ca), centroid(cb));
                     if let (Some((_, lo)), Some((_, hi))) = (best, worst) {
-                        out.push((at, hi, [220, 40, 40, 230]));
-                        out.push((at, sum.map(|s| s / count), [240, 150, 20, 230]));
-                        out.push((at, lo, [30, 160, 60, 230]));
+                        out.push((at, hi, PairKind::Largest));
+                        out.push((at, sum.map(|s| s / count), PairKind::Mean));
+                        out.push((at, lo, PairKind::Smallest));
                     }
                 }
             }
@@ -196,13 +184,13 @@ fn pair_ellipses(
     out
 }
 
-/// Every picture of one SLAM localizer: (file name, bytes).
-pub fn pictures(
+/// Every picture of one SLAM localizer: (file stem, figure).
+pub fn figures(
     world: &World,
     run: &RunResult,
     loc: &LocalizerRun,
     slam: &SlamRun,
-) -> Result<Vec<(String, Vec<u8>)>, String> {
+) -> Result<Vec<(String, Figure)>, FigureError> {
     let Some(last) = slam.snapshots.last() else {
         return Ok(Vec::new());
     };
@@ -230,18 +218,9 @@ pub fn pictures(
         return Ok(Vec::new());
     }
     let min = [lo[0] - MARGIN_M, lo[1] - MARGIN_M];
-    let (w_m, h_m) = (
-        hi[0] - lo[0] + 2.0 * MARGIN_M,
-        hi[1] - lo[1] + 2.0 * MARGIN_M,
-    );
-    let scale = (TARGET_PX / w_m.max(h_m)).clamp(10.0, 400.0);
-    let view = View {
-        min,
-        scale,
-        width: (w_m * scale).ceil(),
-        height: (h_m * scale).ceil() + LEGEND_PX,
-    };
-    // One magnification per run, from the final frame's median all-pairs ellipse (12 px).
+    let max = [hi[0] + MARGIN_M, hi[1] + MARGIN_M];
+    let scale = TARGET_PX / (max[0] - min[0]).max(max[1] - min[1]);
+    // One magnification per run, from the final frame's median all-pairs ellipse (18 px).
     let mut finals: Vec<f64> = pair_ellipses(last, "all_pairs", slam.cluster_distance, &[])
         .iter()
         .map(|(_, pd, _)| ellipse_of(pd[0], pd[1], pd[2]).0)
@@ -250,10 +229,10 @@ pub fn pictures(
     let mag = magnification(
         finals.get(finals.len() / 2).copied().unwrap_or(0.0),
         scale,
-        12.0,
+        18.0,
     );
 
-    let mut files = Vec::new();
+    let mut out = Vec::new();
     let frames = slam.snapshots.len();
     for (fi, snap) in slam.snapshots.iter().enumerate() {
         let label = if fi + 1 == frames {
@@ -269,30 +248,31 @@ pub fn pictures(
             .map(|p| (p.i, p.j))
             .collect();
         for mode in MODES {
-            let items = frame_items(world, run, loc, slam, snap, mode, mag, &flagged);
-            let title = format!(
-                "{} / {}: {} at t = {:.1} s, {} features; 95 % ellipses of P_d ×{} (blue; red: flagged)",
-                run.scenario,
-                loc.name,
+            let mut fig = frame_figure(world, run, loc, slam, snap, mode, mag, &flagged);
+            fig.view = Some((min, max));
+            fig.title = format!(
+                "{}: {} mode, t = {:.1} s",
+                crate::plot::run_title(run, loc),
                 mode.replace('_', " "),
                 snap.stamp,
-                snap.features(),
-                mag
             );
-            let base = format!("slam_{}_{}_{}", loc.name, mode, label);
-            files.push((
-                format!("{base}.svg"),
-                svg(&view, &items, &title).into_bytes(),
+            fig.subtitle = format!(
+                "{} features; 95 % ellipses of the relative covariance P_d, magnified ×{}",
+                snap.features(),
+                crate::figure::format_number(mag)
+            );
+            out.push((
+                format!("slam_{}_{}_{}", loc.name, mode, label),
+                map_figure(&fig)?,
             ));
-            files.push((format!("{base}.png"), png(&view, &items)?));
         }
     }
-    Ok(files)
+    Ok(out)
 }
 
 #[allow(clippy::too_many_arguments)]
-fn frame_items(
-    world: &World,
+fn frame_figure<'a>(
+    world: &'a World,
     run: &RunResult,
     loc: &LocalizerRun,
     slam: &SlamRun,
@@ -300,56 +280,24 @@ fn frame_items(
     mode: &str,
     mag: f64,
     flagged: &[(usize, usize)],
-) -> Vec<Item> {
-    let mut items = Vec::new();
-    for wall in &world.walls {
-        let glass = world
-            .materials
-            .iter()
-            .any(|m| m.name == wall.material && matches!(m.laser, LaserBehaviour::Glass { .. }));
-        items.push(Item::Poly {
-            pts: wall_corners(wall.a, wall.b, wall.thickness).to_vec(),
-            rgba: if glass {
-                [126, 200, 227, 160]
-            } else {
-                [85, 85, 85, 255]
-            },
-        });
-    }
-    for p in &world.pillars {
-        items.push(Item::Disc {
-            c: p.center,
-            r: p.radius,
-            min_px: 3.0,
-            rgba: [110, 110, 110, 255],
-        });
-    }
+) -> MapFigure<'a> {
     let upto = |v: &[(f64, atrium_robots::Pose2)]| -> Vec<[f64; 2]> {
         v.iter()
             .filter(|(t, _)| *t <= snap.stamp + 1e-9)
             .map(|(_, p)| [p.x, p.y])
             .collect()
     };
-    items.push(Item::Line {
-        pts: upto(&run.ground_truth),
-        rgba: [0, 0, 0, 255],
-        width: 1.5,
-    });
-    items.push(Item::Line {
-        pts: upto(&loc.trajectory),
-        rgba: [30, 170, 60, 255],
-        width: 2.0,
-    });
-    for (c, pd, rgba) in pair_ellipses(snap, mode, slam.cluster_distance, flagged) {
+    let estimate = OKABE_ITO[2];
+    let paths = vec![
+        MapPath::new("ground truth", upto(&run.ground_truth)).width(3),
+        MapPath::new(format!("{} estimate", loc.name), upto(&loc.trajectory)).colour(estimate),
+    ];
+    let mut shapes = Vec::new();
+    for (c, pd, kind) in pair_ellipses(snap, mode, slam.cluster_distance, flagged) {
         let (a, b, angle) = ellipse_of(pd[0], pd[1], pd[2]);
-        items.push(Item::Ellipse {
-            c,
-            a: a * mag,
-            b: b * mag,
-            angle,
-            rgba,
-            width: 1.2,
-        });
+        shapes.push(
+            MapShape::ellipse(c, (a * mag, b * mag), angle, kind.colour()).label(kind.label(mag)),
+        );
     }
     for k in 0..snap.features() {
         let f = snap.feature(k);
@@ -358,237 +306,31 @@ fn frame_items(
             snap.cov(3 + 2 * k, 4 + 2 * k),
             snap.cov(4 + 2 * k, 4 + 2 * k),
         );
-        let faulty = slam.fault_features.contains(&k);
-        let rgba = if faulty {
-            [200, 0, 200, 255]
+        let (colour, label) = if slam.fault_features.contains(&k) {
+            (OKABE_ITO[4], "faulty feature (95 %)")
         } else {
-            [0, 170, 200, 255]
+            (OKABE_ITO[5], "feature estimate (95 %)")
         };
-        items.push(Item::Ellipse {
-            c: f,
-            a: a * mag,
-            b: b * mag,
-            angle,
-            rgba,
-            width: 1.0,
-        });
-        items.push(Item::Disc {
-            c: f,
-            r: 0.0,
-            min_px: 3.0,
-            rgba,
-        });
+        shapes.push(MapShape::ellipse(f, (a * mag, b * mag), angle, colour).label(label));
+        shapes.push(MapShape::dot(f, 5, colour));
     }
-    // The robot estimate: a green disc with a yellow heading arrow.
+    // The robot estimate: a dot with a heading stroke.
     let (x, y, th) = (snap.state[0], snap.state[1], snap.state[2]);
-    items.push(Item::Disc {
-        c: [x, y],
-        r: 0.0,
-        min_px: 5.0,
-        rgba: [30, 170, 60, 255],
-    });
-    items.push(Item::Line {
-        pts: vec![[x, y], [x + 0.3 * th.cos(), y + 0.3 * th.sin()]],
-        rgba: [230, 200, 0, 255],
-        width: 3.0,
-    });
-    items
-}
-
-fn rgba_css(c: [u8; 4]) -> String {
-    format!(
-        r#"rgb({},{},{})" opacity="{:.2}"#,
-        c[0],
-        c[1],
-        c[2],
-        c[3] as f64 / 255.0
-    )
-}
-
-fn svg(view: &View, items: &[Item], title: &str) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w:.0}" height="{h:.0}" viewBox="0 0 {w:.0} {h:.0}" font-family="sans-serif" font-size="12">"#,
-        w = view.width,
-        h = view.height
+    shapes.push(MapShape::dot([x, y], 9, estimate).label("robot estimate"));
+    shapes.push(
+        MapShape::segment(
+            [x, y],
+            [x + 0.4 * th.cos(), y + 0.4 * th.sin()],
+            OKABE_ITO[3],
+        )
+        .label("estimated heading"),
     );
-    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    for it in items {
-        match it {
-            Item::Poly { pts, rgba } => {
-                let p: Vec<String> = pts
-                    .iter()
-                    .map(|p| view.px(*p))
-                    .map(|(x, y)| format!("{x:.1},{y:.1}"))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    r#"<polygon points="{}" fill="{}"/>"#,
-                    p.join(" "),
-                    rgba_css(*rgba)
-                );
-            }
-            Item::Line { pts, rgba, width } => {
-                if pts.len() < 2 {
-                    continue;
-                }
-                let p: Vec<String> = pts
-                    .iter()
-                    .map(|p| view.px(*p))
-                    .map(|(x, y)| format!("{x:.1},{y:.1}"))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    r#"<polyline points="{}" fill="none" stroke-width="{width}" stroke="{}/>"#,
-                    p.join(" "),
-                    rgba_css(*rgba)
-                );
-            }
-            Item::Disc { c, r, min_px, rgba } => {
-                let (x, y) = view.px(*c);
-                let r = (r * view.scale).max(*min_px);
-                let _ = writeln!(
-                    s,
-                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="{r:.1}" fill="{}/>"#,
-                    rgba_css(*rgba)
-                );
-            }
-            Item::Ellipse {
-                c,
-                a,
-                b,
-                angle,
-                rgba,
-                width,
-            } => {
-                let (x, y) = view.px(*c);
-                // SVG's y axis points down, so a counter-clockwise world angle is negative.
-                let _ = writeln!(
-                    s,
-                    r#"<ellipse cx="{x:.1}" cy="{y:.1}" rx="{:.2}" ry="{:.2}" transform="rotate({:.2} {x:.1} {y:.1})" fill="none" stroke-width="{width}" stroke="{}/>"#,
-                    (a * view.scale).max(0.5),
-                    (b * view.scale).max(0.5),
-                    -angle.to_degrees(),
-                    rgba_css(*rgba)
-                );
-            }
-        }
+    MapFigure {
+        base: MapBase::World(world),
+        paths,
+        shapes,
+        ..MapFigure::default()
     }
-    let ly = view.height - LEGEND_PX + 16.0;
-    let _ = writeln!(s, r#"<text x="6" y="{ly:.0}">{title}</text>"#);
-    let _ = writeln!(
-        s,
-        r#"<text x="6" y="{:.0}">black: ground truth; green: estimated path and pose; grey: pillars; cyan: features (magenta: fault-injected); min / mean / max: green / orange / red</text>"#,
-        ly + 18.0
-    );
-    s.push_str("</svg>\n");
-    s
-}
-
-fn png(view: &View, items: &[Item]) -> Result<Vec<u8>, String> {
-    use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
-    let mut pm = Pixmap::new(view.width as u32, view.height as u32).ok_or("picture too large")?;
-    pm.fill(Color::WHITE);
-    let paint_of = |c: [u8; 4]| {
-        let mut p = Paint {
-            anti_alias: true,
-            ..Paint::default()
-        };
-        p.set_color_rgba8(c[0], c[1], c[2], c[3]);
-        p
-    };
-    for it in items {
-        match it {
-            Item::Poly { pts, rgba } => {
-                let mut pb = PathBuilder::new();
-                for (i, p) in pts.iter().enumerate() {
-                    let (x, y) = view.px(*p);
-                    if i == 0 {
-                        pb.move_to(x as f32, y as f32);
-                    } else {
-                        pb.line_to(x as f32, y as f32);
-                    }
-                }
-                pb.close();
-                if let Some(path) = pb.finish() {
-                    pm.fill_path(
-                        &path,
-                        &paint_of(*rgba),
-                        FillRule::Winding,
-                        Transform::identity(),
-                        None,
-                    );
-                }
-            }
-            Item::Line { pts, rgba, width } => {
-                let mut pb = PathBuilder::new();
-                for (i, p) in pts.iter().enumerate() {
-                    let (x, y) = view.px(*p);
-                    if i == 0 {
-                        pb.move_to(x as f32, y as f32);
-                    } else {
-                        pb.line_to(x as f32, y as f32);
-                    }
-                }
-                if let Some(path) = pb.finish() {
-                    let stroke = Stroke {
-                        width: *width as f32,
-                        ..Stroke::default()
-                    };
-                    pm.stroke_path(
-                        &path,
-                        &paint_of(*rgba),
-                        &stroke,
-                        Transform::identity(),
-                        None,
-                    );
-                }
-            }
-            Item::Disc { c, r, min_px, rgba } => {
-                let (x, y) = view.px(*c);
-                let r = (r * view.scale).max(*min_px) as f32;
-                if let Some(path) = PathBuilder::from_circle(x as f32, y as f32, r) {
-                    pm.fill_path(
-                        &path,
-                        &paint_of(*rgba),
-                        FillRule::Winding,
-                        Transform::identity(),
-                        None,
-                    );
-                }
-            }
-            Item::Ellipse {
-                c,
-                a,
-                b,
-                angle,
-                rgba,
-                width,
-            } => {
-                let (x, y) = view.px(*c);
-                let (rx, ry) = (
-                    ((a * view.scale).max(0.5)) as f32,
-                    ((b * view.scale).max(0.5)) as f32,
-                );
-                let Some(rect) = Rect::from_xywh(-rx, -ry, 2.0 * rx, 2.0 * ry) else {
-                    continue;
-                };
-                let mut pb = PathBuilder::new();
-                pb.push_oval(rect);
-                if let Some(path) = pb.finish() {
-                    let t = Transform::from_rotate(-angle.to_degrees() as f32)
-                        .post_translate(x as f32, y as f32);
-                    let stroke = Stroke {
-                        width: *width as f32,
-                        ..Stroke::default()
-                    };
-                    pm.stroke_path(&path, &paint_of(*rgba), &stroke, t, None);
-                }
-            }
-        }
-    }
-    pm.encode_png().map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

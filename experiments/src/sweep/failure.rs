@@ -32,8 +32,9 @@
 
 use super::csv::{self, Results, Row};
 use super::heatmap::{self, AxisLabels};
-use super::text;
 use atrium_scenarios::error::ScenarioError;
+use atrium_scenarios::figure::colour::line_colour;
+use atrium_scenarios::figure::{self, Figure, LineChart, Rgb, Series, Threshold};
 use atrium_scenarios::metrics::{quantile_sorted, Sample};
 use atrium_scenarios::seeds::derive_seed;
 use rand::{Rng, SeedableRng};
@@ -41,7 +42,6 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 /// `[failure]` of a sweep file: what counts as failing, and how the curves are summarised.
 ///
@@ -496,11 +496,32 @@ fn crossing(
     }
 }
 
+/// A number for summary.md: at most three significant digits, no trailing zeros.
+fn number(v: f64) -> String {
+    if !v.is_finite() {
+        return "-".into();
+    }
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e5).contains(&a) {
+        format!("{v:.1e}")
+    } else {
+        let decimals = (2 - a.log10().floor() as i32).max(0) as usize;
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    }
+}
+
 /// The `summary.md` section: the settings, then per axis (and combination of the others)
 /// one line per localizer naming where each failure rate first exceeds the level.
 pub fn to_markdown(curves: &Curves, settings: &FailureSettings, pictures: &[String]) -> String {
-    let thr = text::number(settings.error_threshold_m);
-    let lost = text::number(settings.lost_m);
+    let thr = number(settings.error_threshold_m);
+    let lost = number(settings.lost_m);
     let mut s = format!(
         "\n# Failure curves\n\n`[failure]`: failed time is error above {thr} m; a trial whose \
          final error is above {lost} m ended lost; level {}; {:.0} % percentile-bootstrap \
@@ -562,209 +583,107 @@ pub fn to_markdown(curves: &Curves, settings: &FailureSettings, pictures: &[Stri
 // ---------------------------------------------------------------------------------------
 // Pictures.
 
-const FONT: u32 = 2;
-const PANEL_W: f32 = 440.0;
-const PANEL_H: f32 = 240.0;
-const PAD_L: f32 = 64.0;
-const PAD_R: f32 = 20.0;
-const PAD_T: f32 = 28.0;
-const PAD_B: f32 = 44.0;
-const HEAD: f32 = 34.0;
-const LEGEND_ROW: f32 = 22.0;
-/// Longest axis-value label under a panel, characters.
-const MAX_TICK: usize = 10;
-
-/// Localizer colours (Tableau 10, without the greys used for the frame and the lines).
-pub const PALETTE: [[u8; 3]; 8] = [
-    [31, 119, 180],
-    [214, 39, 40],
-    [44, 160, 44],
-    [148, 103, 189],
-    [255, 127, 14],
-    [23, 190, 207],
-    [140, 86, 75],
-    [227, 119, 194],
-];
-
-fn paint(rgb: [u8; 3]) -> Paint<'static> {
-    let mut p = Paint::default();
-    p.set_color_rgba8(rgb[0], rgb[1], rgb[2], 255);
-    p.anti_alias = true;
-    p
-}
-
-fn line(pm: &mut Pixmap, pts: &[(f32, f32)], rgb: [u8; 3], width: f32) {
-    if pts.len() < 2 {
-        return;
-    }
-    let mut pb = PathBuilder::new();
-    pb.move_to(pts[0].0, pts[0].1);
-    for p in &pts[1..] {
-        pb.line_to(p.0, p.1);
-    }
-    if let Some(path) = pb.finish() {
-        let stroke = Stroke {
-            width,
-            ..Stroke::default()
-        };
-        pm.stroke_path(&path, &paint(rgb), &stroke, Transform::identity(), None);
-    }
-}
-
-fn dashed_h(pm: &mut Pixmap, x0: f32, x1: f32, y: f32, rgb: [u8; 3]) {
-    let mut x = x0;
-    while x < x1 {
-        line(pm, &[(x, y), ((x + 6.0).min(x1), y)], rgb, 1.0);
-        x += 10.0;
-    }
-}
-
 type Pick = fn(&CellEstimates) -> Option<Estimate>;
 
-/// One picture: the curves of one axis and combination, one per localizer (`colours[k]`
-/// for `group[k]`).
+/// One figure: the curves of one axis and combination, one per localizer (`colours[k]` for
+/// `group[k]`), in four stacked panels with the bootstrap intervals as bands and the
+/// threshold and rate level drawn dashed and labelled.
 fn picture(
     group: &[&Curve],
-    colours: &[[u8; 3]],
-    xs: &[(String, f64)],
+    colours: &[Rgb],
     title: &str,
+    subtitle: &str,
     settings: &FailureSettings,
-) -> Result<Vec<u8>, String> {
-    let width = 2.0 * PANEL_W;
-    // Legend rows: entries laid left to right, wrapped at the picture's width.
-    let mut legend: Vec<(f32, f32, usize)> = Vec::new();
-    let (mut lx, mut ly) = (12.0f32, 0.0f32);
-    for (k, c) in group.iter().enumerate() {
-        let w = 18.0 + text::width(&heatmap::clip(&c.localizer), FONT) as f32 + 20.0;
-        if lx + w > width && lx > 12.0 {
-            lx = 12.0;
-            ly += LEGEND_ROW;
-        }
-        legend.push((lx, ly, k));
-        lx += w;
-    }
-    let height = HEAD + 2.0 * PANEL_H + ly + LEGEND_ROW + 10.0;
-    let mut pm = Pixmap::new(width as u32, height as u32).ok_or("failure picture too large")?;
-    pm.fill(Color::WHITE);
-    let black = [0, 0, 0];
-    let grey = [150, 150, 150];
-    text::draw(&mut pm, 10.0, 10.0, FONT, black, title);
-
-    let thr = text::number(settings.error_threshold_m);
-    let lost = text::number(settings.lost_m);
-    let panels: [(String, Pick, bool); 4] = [
-        ("median error, m".into(), |e| e.median_m, false),
-        ("p95 error, m".into(), |e| e.p95_m, false),
+) -> Result<Figure, String> {
+    let thr = figure::format_number(settings.error_threshold_m);
+    let lost = figure::format_number(settings.lost_m);
+    let level = 100.0 * settings.rate_level;
+    // (panel title, y label, pick, as a rate in %)
+    let panels: [(String, &str, Pick, bool); 4] = [
         (
-            format!("time with error > {thr} m"),
+            "Median position error".into(),
+            "median error (m)",
+            |e| e.median_m,
+            false,
+        ),
+        (
+            "95th-percentile position error".into(),
+            "p95 error (m)",
+            |e| e.p95_m,
+            false,
+        ),
+        (
+            format!("Time with error above {thr} m"),
+            "time failed (%)",
             |e| e.time_failed,
             true,
         ),
-        (format!("trials lost (final > {lost} m)"), |e| e.lost, true),
+        (
+            format!("Trials ending lost (final error above {lost} m)"),
+            "trials lost (%)",
+            |e| e.lost,
+            true,
+        ),
     ];
-    let (xmin, xmax) = xs
+    let charts: Vec<LineChart> = panels
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(x.1), b.max(x.1))
-        });
-    for (k, (name, pick, rate)) in panels.iter().enumerate() {
-        let ox = (k % 2) as f32 * PANEL_W;
-        let oy = HEAD + (k / 2) as f32 * PANEL_H;
-        let (x0, x1) = (ox + PAD_L, ox + PANEL_W - PAD_R);
-        let (y0, y1) = (oy + PAD_T, oy + PANEL_H - PAD_B);
-        text::draw(&mut pm, x0, oy + 6.0, FONT, black, name);
-        let ymax = match rate {
-            true => 1.0,
-            false => {
-                let top = group
-                    .iter()
-                    .flat_map(|c| c.points.iter().filter_map(|p| pick(&p.est)))
-                    .flat_map(|e| [e.value, e.hi])
-                    .filter(|v| v.is_finite())
-                    .fold(settings.error_threshold_m, f64::max);
-                top * 1.1
-            }
-        };
-        // Inner margin so end points and whiskers stay off the frame.
-        let px = |x: f64| -> f32 {
-            match xmax > xmin {
-                true => x0 + 10.0 + ((x - xmin) / (xmax - xmin)) as f32 * (x1 - x0 - 20.0),
-                false => (x0 + x1) / 2.0,
-            }
-        };
-        let py = |v: f64| -> f32 { y1 - (v / ymax).clamp(0.0, 1.0) as f32 * (y1 - y0) };
-        line(
-            &mut pm,
-            &[(x0, y0), (x0, y1), (x1, y1), (x1, y0), (x0, y0)],
-            grey,
-            1.0,
-        );
-        let mark = match rate {
-            true => settings.rate_level,
-            false => settings.error_threshold_m,
-        };
-        dashed_h(&mut pm, x0, x1, py(mark), grey);
-        for v in [0.0, ymax / 2.0, ymax] {
-            let label = text::number(v);
-            let tw = text::width(&label, FONT) as f32;
-            let y = py(v) - text::height(FONT) as f32 / 2.0;
-            text::draw(&mut pm, x0 - tw - 6.0, y, FONT, black, &label);
-        }
-        // Value labels under the axis, left out where they would overlap the previous one.
-        let mut right_end = f32::NEG_INFINITY;
-        let mut sorted: Vec<&(String, f64)> = xs.iter().collect();
-        sorted.sort_by(|a, b| a.1.total_cmp(&b.1));
-        for (label, x) in sorted {
-            let l: String = match label.chars().count() > MAX_TICK {
-                true => label.chars().take(MAX_TICK - 1).chain(['~']).collect(),
-                false => label.clone(),
-            };
-            let tw = text::width(&l, FONT) as f32;
-            let left = px(*x) - tw / 2.0;
-            if left > right_end + 6.0 {
-                text::draw(&mut pm, left, y1 + 6.0, FONT, black, &l);
-                right_end = left + tw;
-            }
-        }
-        let axis_title = heatmap::clip(&group[0].axis);
-        text::draw(&mut pm, x0, y1 + 22.0, FONT, black, &axis_title);
-        for (c, &rgb) in group.iter().zip(colours) {
-            let pts: Vec<(f32, f32, Estimate)> = c
-                .points
+        .map(|(name, y_label, pick, rate)| {
+            let k = if *rate { 100.0 } else { 1.0 };
+            let series = group
                 .iter()
-                .filter_map(|p| pick(&p.est).map(|e| (px(p.x), py(e.value), e)))
+                .zip(colours)
+                .map(|(c, &col)| {
+                    let pts: Vec<(f64, Estimate)> = c
+                        .points
+                        .iter()
+                        .filter_map(|p| pick(&p.est).map(|e| (p.x, e)))
+                        .collect();
+                    let band: Vec<(f64, f64, f64)> = pts
+                        .iter()
+                        .filter(|(_, e)| e.lo.is_finite() && e.hi.is_finite())
+                        .map(|(x, e)| (*x, k * e.lo, k * e.hi))
+                        .collect();
+                    Series::new(
+                        heatmap::clip(&c.localizer),
+                        pts.iter().map(|(x, e)| (*x, k * e.value)).collect(),
+                    )
+                    .with_band(band)
+                    .colour(col)
+                })
                 .collect();
-            let poly: Vec<(f32, f32)> = pts.iter().map(|p| (p.0, p.1)).collect();
-            line(&mut pm, &poly, rgb, 2.0);
-            for (x, y, e) in &pts {
-                if e.lo.is_finite() && e.hi.is_finite() {
-                    let (ylo, yhi) = (py(e.lo), py(e.hi));
-                    line(&mut pm, &[(*x, ylo), (*x, yhi)], rgb, 1.5);
-                    line(&mut pm, &[(x - 4.0, ylo), (x + 4.0, ylo)], rgb, 1.5);
-                    line(&mut pm, &[(x - 4.0, yhi), (x + 4.0, yhi)], rgb, 1.5);
-                }
-                heatmap::fill(&mut pm, x - 3.0, y - 3.0, 7.0, 7.0, rgb);
+            let thresholds = if *rate {
+                vec![Threshold::new(level, "rate level")]
+            } else {
+                vec![Threshold::new(
+                    settings.error_threshold_m,
+                    "failure threshold",
+                )]
+            };
+            LineChart {
+                title: name.clone(),
+                x_label: heatmap::clip(&group[0].axis),
+                y_label: y_label.to_string(),
+                series,
+                thresholds,
+                y_range: rate.then_some((0.0, 105.0)),
+                y_from_zero: true,
+                ..LineChart::default()
             }
-        }
-    }
-    let base = HEAD + 2.0 * PANEL_H;
-    for (x, y, k) in legend {
-        heatmap::fill(&mut pm, x, base + y + 2.0, 12.0, 12.0, colours[k]);
-        let name = heatmap::clip(&group[k].localizer);
-        text::draw(&mut pm, x + 18.0, base + y + 3.0, FONT, black, &name);
-    }
-    pm.encode_png().map_err(|e| e.to_string())
+        })
+        .collect();
+    figure::line_panels(title, subtitle, &charts).map_err(|e| e.to_string())
 }
 
-/// A picture: its file name and PNG bytes.
-pub type Png = (String, Vec<u8>);
+/// A figure and the file stem it is written under (`.png` and `.svg`).
+pub type Named = (String, Figure);
 
-/// The pictures of `curves`, and notes on pictures left out.
+/// The figures of `curves` of sweep `sweep`, and notes on figures left out.
 pub fn pictures(
+    sweep: &str,
     curves: &Curves,
     axes: &[AxisLabels],
     settings: &FailureSettings,
-) -> Result<(Vec<Png>, Vec<String>), String> {
+) -> Result<(Vec<Named>, Vec<String>), String> {
     // A localizer keeps its colour in every picture: by its place in name order.
     let mut localizers: Vec<&str> = Vec::new();
     for c in &curves.curves {
@@ -775,7 +694,7 @@ pub fn pictures(
     localizers.sort();
     let colour = |loc: &str| {
         let k = localizers.iter().position(|l| *l == loc).unwrap_or(0);
-        PALETTE[k % PALETTE.len()]
+        line_colour(k)
     };
     // Groups: consecutive curves of one axis and combination (`curves` makes them so).
     let mut groups: Vec<Vec<&Curve>> = Vec::new();
@@ -798,10 +717,9 @@ pub fn pictures(
     let mut pics = Vec::new();
     for g in groups {
         let axis = axes.iter().find(|a| a.path == g[0].axis);
-        let xs: Vec<(String, f64)> = match axis.and_then(|a| numeric(a).map(|x| (a, x))) {
-            Some((a, x)) => a.values.iter().cloned().zip(x).collect(),
-            None => continue,
-        };
+        if axis.and_then(numeric).is_none() {
+            continue;
+        }
         let suffix: String = g[0]
             .fixed
             .iter()
@@ -817,17 +735,40 @@ pub fn pictures(
             .map(|(p, v)| format!("{} = {}", heatmap::clip(p), heatmap::clip(v)))
             .collect();
         let title = match rest.is_empty() {
-            true => format!("failure along {}", heatmap::clip(&g[0].axis)),
+            true => format!("Sweep {sweep}: failure along {}", heatmap::clip(&g[0].axis)),
             false => format!(
-                "failure along {} ({})",
+                "Sweep {sweep}: failure along {} ({})",
                 heatmap::clip(&g[0].axis),
                 rest.join(", ")
             ),
         };
-        let colours: Vec<[u8; 3]> = g.iter().map(|c| colour(&c.localizer)).collect();
-        pics.push(picture(&g, &colours, &xs, &title, settings)?);
+        let trials = g
+            .iter()
+            .flat_map(|c| {
+                c.points
+                    .iter()
+                    .filter_map(|p| p.est.median_m.map(|e| e.trials))
+            })
+            .max()
+            .unwrap_or(0);
+        let subtitle = if settings.bootstrap > 0 {
+            format!(
+                "points: over the trials of each cell (up to {trials}); bands: {} % \
+                 percentile-bootstrap intervals ({} resamples)",
+                figure::format_number(100.0 * settings.confidence),
+                settings.bootstrap
+            )
+        } else {
+            format!("points: over the trials of each cell (up to {trials}); no intervals (bootstrap = 0)")
+        };
+        let colours: Vec<Rgb> = g.iter().map(|c| colour(&c.localizer)).collect();
+        pics.push(picture(&g, &colours, &title, &subtitle, settings)?);
     }
-    let named = heatmap::unique_names(names).into_iter().zip(pics).collect();
+    let named = heatmap::unique_names(names)
+        .into_iter()
+        .map(|n| n.trim_end_matches(".png").to_string())
+        .zip(pics)
+        .collect();
     Ok((named, notes))
 }
 
@@ -853,17 +794,15 @@ pub fn write_outputs(
     let csv_path = out.join("failure_curves.csv");
     csv::write_atomic(&csv_path, &to_csv(&curves, settings))?;
     let mut files = vec![csv_path];
-    let (pics, notes) = pictures(&curves, axes, settings)
+    let (pics, notes) = pictures(&results.name, &curves, axes, settings)
         .map_err(|msg| ScenarioError::field(out, "failure pictures", msg))?;
     let mut names = Vec::new();
-    for (name, png) in pics {
-        let p = out.join(&name);
-        atrium_scenarios::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Write {
-            file: p.clone(),
-            err,
-        })?;
-        files.push(p);
-        names.push(name);
+    for (stem, fig) in pics {
+        files.extend(
+            fig.write(out, &stem)
+                .map_err(|e| ScenarioError::figure(out, e))?,
+        );
+        names.push(format!("{stem}.png"));
     }
     Ok(Written {
         files,
@@ -1051,17 +990,27 @@ mod tests {
     fn pictures_draw_every_localizer_in_its_colour() {
         let settings = FailureSettings::default();
         let c = curves(&results(), &axes(), &settings, 7);
-        let (pics, notes) = pictures(&c, &axes(), &settings).unwrap();
+        let (pics, notes) = pictures("s", &c, &axes(), &settings).unwrap();
         assert!(notes.is_empty());
         assert_eq!(pics.len(), 1);
-        assert_eq!(pics[0].0, "failure_world.atrium_width_duration_s=30.0.png");
-        let pm = Pixmap::decode_png(&pics[0].1).unwrap();
-        let has = |rgb: [u8; 3]| {
-            pm.pixels()
-                .iter()
-                .any(|p| [p.red(), p.green(), p.blue()] == rgb && p.alpha() == 255)
+        assert_eq!(pics[0].0, "failure_world.atrium_width_duration_s=30.0");
+        let svg = pics[0].1.svg();
+        let colour = |k: usize| {
+            let c = line_colour(k);
+            format!("#{:02X}{:02X}{:02X}", c[0], c[1], c[2])
         };
-        assert!(has(PALETTE[0]) && has(PALETTE[1]));
-        assert!(!has(PALETTE[2]), "only two localizers");
+        assert!(svg.contains(&colour(0)) && svg.contains(&colour(1)));
+        assert!(!svg.contains(&colour(2)), "only two localizers");
+        for text in [
+            "Sweep s: failure along world.atrium_width (duration_s = 30.0)",
+            "failure threshold (1)",
+            "rate level (50)",
+            "time failed (%)",
+        ] {
+            assert!(
+                svg.contains(&format!(">\n{text}\n<")) || svg.contains(text),
+                "{text}"
+            );
+        }
     }
 }

@@ -1,13 +1,13 @@
-//! `heatmap_<localizer>[_<rest>].png` (issue 9, deliverable 2): per localizer, the sweep's
-//! cells on a grid — first axis along x, second along y (one axis: a strip; more: one picture
-//! per combination of the remaining axes, named by them) — coloured by the median over trials
-//! of each trial's median position error (the summary's "median" column), with the value in
-//! each cell, axis labels and a colour bar. Hotter is larger.
+//! `heatmap_<localizer>[_<rest>].png` and `.svg` (issue 9, deliverable 2; issue 43): per
+//! localizer, the sweep's cells on a grid — first axis along x, second along y (one axis: a
+//! strip; more: one picture per combination of the remaining axes, named by them) — coloured
+//! by the median over trials of each trial's median position error (the summary's "median"
+//! column) on a logarithmic viridis scale, with the value written in each cell, the axes named
+//! by their parameter paths and a colour bar in metres. Drawn with [`atrium_scenarios::figure`].
 
 use super::csv::Results;
 use super::summary;
-use super::text;
-use tiny_skia::{Color, Paint, Pixmap, Rect, Transform};
+use atrium_scenarios::figure::{self, Figure};
 
 /// One axis as the picture labels it.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,90 +16,9 @@ pub struct AxisLabels {
     pub values: Vec<String>,
 }
 
-/// Minimum cell size in pixels.
-pub const CELL_W: u32 = 64;
-pub const CELL_H: u32 = 40;
-const TOP: u32 = 46;
-const BOTTOM: u32 = 44;
-const RIGHT: u32 = 110;
-const FONT: u32 = 2;
-
-/// The colour scale: t = 0 cold (dark blue) to t = 1 hot (light yellow), through purple, red
-/// and orange: monotonic in lightness, so it also reads in grey.
-pub fn heat_colour(t: f64) -> [u8; 3] {
-    const STOPS: [(f64, [f64; 3]); 5] = [
-        (0.0, [20.0, 24.0, 100.0]),
-        (0.25, [90.0, 40.0, 160.0]),
-        (0.5, [205.0, 50.0, 90.0]),
-        (0.75, [250.0, 140.0, 30.0]),
-        (1.0, [255.0, 245.0, 120.0]),
-    ];
-    let t = if t.is_finite() {
-        t.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let k = STOPS
-        .windows(2)
-        .position(|w| t <= w[1].0)
-        .unwrap_or(STOPS.len() - 2);
-    let (t0, a) = STOPS[k];
-    let (t1, b) = STOPS[k + 1];
-    let u = (t - t0) / (t1 - t0);
-    let c = |i: usize| (a[i] + (b[i] - a[i]) * u).round() as u8;
-    [c(0), c(1), c(2)]
-}
-
-/// Where `v` lies on a scale from `lo` to `hi`: logarithmic when both are positive (errors
-/// span centimetres to metres), linear otherwise; 0.5 when the range is empty.
-pub fn scale_t(v: f64, lo: f64, hi: f64) -> f64 {
-    // Also an empty or NaN range.
-    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-        return 0.5;
-    }
-    let t = if lo > 0.0 {
-        (v.max(lo).ln() - lo.ln()) / (hi.ln() - lo.ln())
-    } else {
-        (v - lo) / (hi - lo)
-    };
-    t.clamp(0.0, 1.0)
-}
-
-pub(crate) fn fill(pm: &mut Pixmap, x: f32, y: f32, w: f32, h: f32, rgb: [u8; 3]) {
-    let mut paint = Paint::default();
-    paint.set_color_rgba8(rgb[0], rgb[1], rgb[2], 255);
-    if let Some(r) = Rect::from_xywh(x, y, w, h) {
-        pm.fill_rect(r, &paint, Transform::identity(), None);
-    }
-}
-
-/// A vertical colour bar at (x, y) of `h` pixels, hot at the top, labelled at both ends and
-/// in the middle (on a log scale the middle is the geometric mean), with `title` above.
-pub(crate) fn colour_bar(pm: &mut Pixmap, x: f32, y: f32, h: f32, lo: f64, hi: f64, title: &str) {
-    let steps = h.max(1.0) as usize;
-    for s in 0..steps {
-        let t = 1.0 - s as f64 / (steps.max(2) - 1) as f64;
-        fill(pm, x, y + s as f32, 16.0, 1.0, heat_colour(t));
-    }
-    let black = [0, 0, 0];
-    text::draw(pm, x, y - 14.0, FONT, black, title);
-    let mid = if lo > 0.0 && hi > lo {
-        (lo * hi).sqrt()
-    } else {
-        0.5 * (lo + hi)
-    };
-    let ty = text::height(FONT) as f32 / 2.0;
-    text::draw(pm, x + 22.0, y - ty, FONT, black, &text::number(hi));
-    text::draw(
-        pm,
-        x + 22.0,
-        y + h / 2.0 - ty,
-        FONT,
-        black,
-        &text::number(mid),
-    );
-    text::draw(pm, x + 22.0, y + h - ty, FONT, black, &text::number(lo));
-}
+/// More cells than this in one picture and it is left out with a note (nothing would be
+/// readable).
+pub const MAX_CELLS: usize = 4096;
 
 /// Turns a label into a file-name part.
 pub(crate) fn sanitize(s: &str) -> String {
@@ -161,10 +80,6 @@ pub(crate) fn clip(s: &str) -> String {
     }
 }
 
-/// The largest heat map drawn, pixels (about 160 MB of RGBA): a larger one (thousands of
-/// values on one axis) is left out with a note rather than exhausting memory after the run.
-pub const MAX_PIXELS: u64 = 40_000_000;
-
 /// Axis indices of cell `cell` (last axis fastest, as [`super::Sweep::cell_indices`]).
 pub(crate) fn indices(axes: &[AxisLabels], cell: usize) -> Vec<usize> {
     let mut rem = cell;
@@ -177,144 +92,22 @@ pub(crate) fn indices(axes: &[AxisLabels], cell: usize) -> Vec<usize> {
     idx
 }
 
-/// The picture's (width, height, left margin, cell width) for the given axes and title.
-pub fn size(axes: &[AxisLabels], title: &str) -> (u32, u32, u32, u32) {
-    let nx = axes.first().map_or(1, |a| a.values.len()) as u32;
-    let ny = axes.get(1).map_or(1, |a| a.values.len()) as u32;
-    let cw = axes
-        .first()
-        .map(|a| {
-            a.values
-                .iter()
-                .map(|v| text::width(v, FONT))
-                .max()
-                .unwrap_or(0)
-                + 8
-        })
-        .unwrap_or(0)
-        .max(CELL_W);
-    let left = axes
-        .get(1)
-        .map(|a| {
-            a.values
-                .iter()
-                .map(|v| text::width(v, FONT))
-                .max()
-                .unwrap_or(0)
-        })
-        .unwrap_or(0)
-        .max(24)
-        + 16;
-    let labels = [
-        text::width(title, FONT),
-        axes.get(1).map_or(0, |a| text::width(&a.path, FONT)),
-        axes.first()
-            .map_or(0, |a| left + text::width(&a.path, FONT)),
-    ];
-    let width = (left + nx * cw + RIGHT).max(labels.iter().max().unwrap_or(&0) + 16);
-    (width, TOP + ny * CELL_H + BOTTOM, left, cw)
-}
-
-/// Top-left pixel of cell (x, y) (x along the first axis, y along the second, row 0 at the
-/// bottom as on a plot) in a picture of `axes` titled `title`.
-pub fn cell_origin(axes: &[AxisLabels], title: &str, x: usize, y: usize) -> (u32, u32) {
-    let (_, _, left, cw) = size(axes, title);
-    let ny = axes.get(1).map_or(1, |a| a.values.len()).max(1);
-    (
-        left + x as u32 * cw,
-        TOP + (ny - 1 - y.min(ny - 1)) as u32 * CELL_H,
-    )
-}
-
-/// The title of localizer `loc`'s picture (`rest`: the other axes' settings).
-pub fn title(loc: &str, rest: &[String]) -> String {
+/// The title of localizer `loc`'s picture in sweep `sweep` (`rest`: the other axes'
+/// settings).
+pub fn title(sweep: &str, loc: &str, rest: &[String]) -> String {
     match rest.is_empty() {
-        true => format!("{loc}: median error, m"),
-        false => format!("{loc}: median error, m ({})", rest.join(", ")),
+        true => format!("Sweep {sweep}: median position error of {loc}"),
+        false => format!(
+            "Sweep {sweep}: median position error of {loc} ({})",
+            rest.join(", ")
+        ),
     }
 }
 
-/// One picture: `value(x, y)` is the median error of the cell at (x, y) of this slice.
-fn picture(
-    axes: &[AxisLabels],
-    title: &str,
-    value: &dyn Fn(usize, usize) -> Option<f64>,
-) -> Result<Vec<u8>, String> {
-    let (w, h, left, cw) = size(axes, title);
-    let nx = axes.first().map_or(1, |a| a.values.len());
-    let ny = axes.get(1).map_or(1, |a| a.values.len());
-    let mut pm = Pixmap::new(w, h).ok_or("heat map too large")?;
-    pm.fill(Color::WHITE);
-    let vals: Vec<f64> = (0..nx)
-        .flat_map(|x| (0..ny).map(move |y| (x, y)))
-        .filter_map(|(x, y)| value(x, y))
-        .filter(|v| v.is_finite())
-        .collect();
-    let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let black = [0, 0, 0];
-    text::draw(&mut pm, 6.0, 6.0, FONT, black, title);
-    let fh = text::height(FONT) as f32;
-    for x in 0..nx {
-        for y in 0..ny {
-            let (px, py) = cell_origin(axes, title, x, y);
-            let (px, py) = (px as f32, py as f32);
-            let (rgb, label) = match value(x, y) {
-                Some(v) if v.is_finite() => {
-                    let t = scale_t(v, lo, hi);
-                    (heat_colour(t), text::number(v))
-                }
-                _ => ([225, 225, 225], "-".to_string()),
-            };
-            fill(&mut pm, px, py, cw as f32 - 1.0, CELL_H as f32 - 1.0, rgb);
-            let light = rgb.iter().map(|&c| c as u32).sum::<u32>() > 420;
-            let ink = if light { [0, 0, 0] } else { [255, 255, 255] };
-            let tw = text::width(&label, FONT) as f32;
-            text::draw(
-                &mut pm,
-                px + (cw as f32 - tw) / 2.0,
-                py + (CELL_H as f32 - fh) / 2.0,
-                FONT,
-                ink,
-                &label,
-            );
-        }
-    }
-    let grid_bottom = (TOP + ny as u32 * CELL_H) as f32;
-    if let Some(a) = axes.first() {
-        for (x, v) in a.values.iter().enumerate() {
-            let tw = text::width(v, FONT) as f32;
-            let px = (left + x as u32 * cw) as f32 + (cw as f32 - tw) / 2.0;
-            text::draw(&mut pm, px, grid_bottom + 6.0, FONT, black, v);
-        }
-        text::draw(
-            &mut pm,
-            left as f32,
-            grid_bottom + 24.0,
-            FONT,
-            black,
-            &a.path,
-        );
-    }
-    if let Some(a) = axes.get(1) {
-        for (y, v) in a.values.iter().enumerate() {
-            let py = (TOP + (ny - 1 - y) as u32 * CELL_H) as f32 + (CELL_H as f32 - fh) / 2.0;
-            text::draw(&mut pm, 6.0, py, FONT, black, v);
-        }
-        text::draw(&mut pm, 6.0, TOP as f32 - 16.0, FONT, black, &a.path);
-    }
-    if lo.is_finite() {
-        let bx = (left + nx as u32 * cw + 24) as f32;
-        let bh = (ny as u32 * CELL_H).max(60) as f32 - 4.0;
-        colour_bar(&mut pm, bx, TOP as f32 + 2.0, bh, lo, hi, "M");
-    }
-    pm.encode_png().map_err(|e| e.to_string())
-}
-
-/// The heat maps of a sweep: (file name, PNG bytes), and the pictures left out (too large).
+/// Pictures to write: (file stem, figure), and notes on those left out.
 #[derive(Debug, Default)]
 pub struct Heatmaps {
-    pub pictures: Vec<(String, Vec<u8>)>,
+    pub pictures: Vec<(String, Figure)>,
     pub skipped: Vec<String>,
 }
 
@@ -377,22 +170,41 @@ pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Heatmaps, Stri
                 .zip(&rest)
                 .map(|(a, &i)| format!("{} = {}", a.path, a.values[i]))
                 .collect();
-            let title = title(&clip(loc), &rest_text);
-            let (w, h, _, _) = size(&drawn, &title);
-            if u64::from(w) * u64::from(h) > MAX_PIXELS {
+            let title = title(&results.name, &clip(loc), &rest_text);
+            if nx * ny > MAX_CELLS {
                 out.skipped.push(format!(
-                    "{name}: left out: {w} × {h} pixels is more than the limit of \
-                     {MAX_PIXELS} (too many values along the first two axes)"
+                    "{name}: left out: {nx} × {ny} cells is more than the limit of \
+                     {MAX_CELLS} (too many values along the first two axes)"
                 ));
                 continue;
             }
-            let png = picture(&drawn, &title, &value)?;
+            let values: Vec<Option<f64>> = (0..ny)
+                .flat_map(|y| (0..nx).map(move |x| (x, y)))
+                .map(|(x, y)| value(x, y))
+                .collect();
+            let x_axis = drawn.first();
+            let y_axis = drawn.get(1);
+            let fig = figure::heatmap(&figure::Heatmap {
+                title,
+                subtitle: format!(
+                    "median over trials of each trial's median position error; {} trials",
+                    results.rows.iter().filter(|r| r.localizer == *loc).count()
+                ),
+                x_label: x_axis.map_or(String::new(), |a| a.path.clone()),
+                y_label: y_axis.map_or(String::new(), |a| a.path.clone()),
+                x_values: x_axis.map_or(vec![String::new()], |a| a.values.clone()),
+                y_values: y_axis.map_or(vec![String::new()], |a| a.values.clone()),
+                values,
+                colour_label: "median position error (m)".into(),
+                scale: None,
+            })
+            .map_err(|e| format!("{name}: {e}"))?;
             names.push(name);
-            out.pictures.push((String::new(), png));
+            out.pictures.push((String::new(), fig));
         }
     }
     for (pic, name) in out.pictures.iter_mut().zip(unique_names(names)) {
-        pic.0 = name;
+        pic.0 = name.trim_end_matches(".png").to_string();
     }
     Ok(out)
 }
@@ -400,16 +212,6 @@ pub fn heatmaps(results: &Results, axes: &[AxisLabels]) -> Result<Heatmaps, Stri
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn colour_scale_is_monotonic_in_brightness() {
-        let lum = |t: f64| heat_colour(t).iter().map(|&c| c as u32).sum::<u32>();
-        for k in 0..20 {
-            assert!(lum(k as f64 / 20.0) < lum((k + 1) as f64 / 20.0));
-        }
-        assert!((scale_t(0.1, 0.01, 1.0) - 0.5).abs() < 1e-12);
-        assert_eq!(scale_t(3.0, 3.0, 3.0), 0.5);
-    }
 
     #[test]
     fn file_names_stay_short_and_distinct() {
@@ -429,7 +231,7 @@ mod tests {
     #[test]
     fn pictures_too_large_are_left_out_with_a_note() {
         use super::super::csv::{Results, Row};
-        let n = 40_000;
+        let n = MAX_CELLS + 1;
         let axes = vec![AxisLabels {
             path: "p".repeat(500),
             values: (0..n).map(|i| format!("{i}{}", "v".repeat(100))).collect(),
@@ -471,8 +273,5 @@ mod tests {
             },
         ];
         assert_eq!(indices(&axes, 4), vec![1, 1]);
-        let (w, h, left, cw) = size(&axes, "t");
-        assert_eq!(h, TOP + 3 * CELL_H + BOTTOM);
-        assert!(w >= left + 2 * cw + RIGHT);
     }
 }

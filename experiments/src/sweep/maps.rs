@@ -9,38 +9,24 @@
 //!
 //! Outputs (one set per cell; with more than one cell the names get `_c<cell>`):
 //! `error_map.csv` ([`ErrorMap::to_csv`], what the data-driven sensor chooser loads),
-//! `error_map_<localizer>.png` (the world, each visited cell coloured by the localizer's mean
-//! error on a log scale from 1 cm to 10 m) and `error_map_best.png` (each cell coloured by the
-//! localizer with the lowest mean error, with a legend). `maps/world_c<cell>.json` keeps the
-//! cell's world so `sweep merge` can draw without the sweep file.
+//! `error_map_<localizer>.png` / `.svg` (the world, each visited cell coloured by the
+//! localizer's mean error on a logarithmic viridis scale from 1 cm to 10 m, colour bar in
+//! metres) and `error_map_best.png` / `.svg` (each cell coloured by the localizer with the
+//! lowest mean error, Okabe–Ito colours named in the legend). `maps/world_c<cell>.json`
+//! keeps the cell's world so `sweep merge` can draw without the sweep file.
 
-use super::heatmap::{colour_bar, fill, heat_colour, scale_t};
-use super::text;
 use atrium_localization::error_map::ErrorMap;
 use atrium_scenarios::error::ScenarioError;
+use atrium_scenarios::figure::{
+    self, colour::line_colour, ColourMap, ColourScale, Figure, FigureError, MapBase, MapCells,
+    MapFigure,
+};
 use atrium_worlds::World;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use tiny_skia::{Color, Pixmap};
 
-/// Lower and upper end of the error colour scale, m.
+/// Lower and upper end of the error colour scale, m (fixed, so maps compare).
 pub const SCALE_M: (f64, f64) = (0.01, 10.0);
-const PX_PER_M: f64 = 14.0;
-const MARGIN: f64 = 24.0;
-const RIGHT: f64 = 150.0;
-const TOP: f64 = 34.0;
-
-/// Colours of the "best localizer" picture, by layer.
-const PALETTE: [[u8; 3]; 8] = [
-    [31, 119, 180],
-    [255, 127, 14],
-    [44, 160, 44],
-    [214, 39, 40],
-    [148, 103, 189],
-    [140, 86, 75],
-    [227, 119, 194],
-    [23, 190, 207],
-];
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> ScenarioError + '_ {
     move |err| ScenarioError::Io {
@@ -144,110 +130,87 @@ pub fn combine(
     Ok(maps)
 }
 
-struct Frame {
-    min: [f64; 2],
-    max: [f64; 2],
-    width: u32,
-    height: u32,
+fn base(world: Option<&World>) -> MapBase<'_> {
+    world.map_or(MapBase::Empty, MapBase::World)
 }
 
-impl Frame {
-    fn of(map: &ErrorMap, world: Option<&World>) -> Frame {
-        let (mut min, mut max) = (
-            map.origin,
-            [
-                map.origin[0] + map.width as f64 * map.resolution,
-                map.origin[1] + map.height as f64 * map.resolution,
-            ],
-        );
-        if let Some(w) = world {
-            let (lo, hi) = w.bounds();
-            for k in 0..2 {
-                min[k] = min[k].min(lo[k]);
-                max[k] = max[k].max(hi[k]);
-            }
-        }
-        Frame {
-            min,
-            max,
-            width: ((max[0] - min[0]) * PX_PER_M + 2.0 * MARGIN + RIGHT).ceil() as u32,
-            height: ((max[1] - min[1]) * PX_PER_M + 2.0 * MARGIN + TOP).ceil() as u32,
-        }
-    }
-    fn px(&self, p: [f64; 2]) -> (f64, f64) {
-        (
-            MARGIN + (p[0] - self.min[0]) * PX_PER_M,
-            TOP + MARGIN + (self.max[1] - p[1]) * PX_PER_M,
-        )
-    }
-}
-
-/// Draws `map`'s cells with `colour(i, j)`, then the world on top.
-fn picture(
-    map: &ErrorMap,
-    world: Option<&World>,
-    title: &str,
-    colour: &dyn Fn(usize, usize) -> Option<[u8; 3]>,
-) -> Result<(Pixmap, Frame), String> {
-    let f = Frame::of(map, world);
-    let mut pm = Pixmap::new(f.width, f.height).ok_or("error map picture too large")?;
-    pm.fill(Color::WHITE);
-    for j in 0..map.height {
-        for i in 0..map.width {
-            if let Some(rgb) = colour(i, j) {
-                let x0 = map.origin[0] + i as f64 * map.resolution;
-                let y1 = map.origin[1] + (j + 1) as f64 * map.resolution;
-                let (px, py) = f.px([x0, y1]);
-                let s = (map.resolution * PX_PER_M) as f32;
-                fill(&mut pm, px as f32, py as f32, s, s, rgb);
-            }
-        }
-    }
-    if let Some(w) = world {
-        atrium_scenarios::plot::draw_world(&mut pm, w, &|p| f.px(p));
-    }
-    text::draw(&mut pm, MARGIN as f32, 10.0, 2, [0, 0, 0], title);
-    Ok((pm, f))
-}
-
-/// `error_map_<localizer>.png`: each visited cell coloured by `layer`'s mean error.
-pub fn localizer_png(
+/// `error_map_<localizer>`: each visited cell coloured by `layer`'s mean error.
+pub fn localizer_figure(
+    sweep: &str,
     map: &ErrorMap,
     layer: usize,
     world: Option<&World>,
-) -> Result<Vec<u8>, String> {
-    let (lo, hi) = SCALE_M;
-    let title = format!(
-        "{}: mean error by true position, m",
-        map.localizers.get(layer).map_or("?", |s| s.as_str())
+) -> Result<Figure, FigureError> {
+    let name = map.localizers.get(layer).map_or("?", |s| s.as_str());
+    let values = (0..map.height)
+        .flat_map(|j| (0..map.width).map(move |i| (i, j)))
+        .map(|(i, j)| map.mean(layer, i, j).map(|(m, _)| m))
+        .collect();
+    let mut cells = MapCells::new(
+        map.origin,
+        map.resolution,
+        (map.width, map.height),
+        values,
+        "mean position error (m)",
+        true,
     );
-    let colour = |i: usize, j: usize| {
-        map.mean(layer, i, j)
-            .map(|(m, _)| heat_colour(scale_t(m, lo, hi)))
+    cells.scale = ColourScale {
+        lo: SCALE_M.0,
+        hi: SCALE_M.1,
+        log: true,
+        map: ColourMap::Viridis,
     };
-    let (mut pm, f) = picture(map, world, &title, &colour)?;
-    let bx = (f.width as f64 - RIGHT + 24.0) as f32;
-    let bh = (f.height as f64 - TOP - 2.0 * MARGIN).max(60.0) as f32;
-    colour_bar(&mut pm, bx, (TOP + MARGIN) as f32, bh, lo, hi, "M");
-    pm.encode_png().map_err(|e| e.to_string())
+    figure::map_figure(&MapFigure {
+        title: format!("Sweep {sweep}: mean position error of {name} by true position"),
+        subtitle: format!(
+            "every scored instant of every trial added to the cell of the robot's true \
+             position ({} m cells); white: never visited",
+            figure::format_number(map.resolution)
+        ),
+        base: base(world),
+        cells: Some(cells),
+        ..MapFigure::default()
+    })
 }
 
-/// `error_map_best.png`: each cell coloured by the localizer with the lowest mean error.
-pub fn best_png(map: &ErrorMap, world: Option<&World>) -> Result<Vec<u8>, String> {
-    let colour = |i: usize, j: usize| map.best_layer(i, j).map(|l| PALETTE[l % PALETTE.len()]);
-    let (mut pm, f) = picture(map, world, "lowest mean error", &colour)?;
-    let x = (f.width as f64 - RIGHT + 16.0) as f32;
-    for (l, name) in map.localizers.iter().enumerate() {
-        let y = (TOP + MARGIN) as f32 + l as f32 * 22.0;
-        fill(&mut pm, x, y, 14.0, 14.0, PALETTE[l % PALETTE.len()]);
-        text::draw(&mut pm, x + 20.0, y + 2.0, 2, [0, 0, 0], name);
-    }
-    pm.encode_png().map_err(|e| e.to_string())
+/// `error_map_best`: each cell coloured by the localizer with the lowest mean error.
+pub fn best_figure(
+    sweep: &str,
+    map: &ErrorMap,
+    world: Option<&World>,
+) -> Result<Figure, FigureError> {
+    let values = (0..map.height)
+        .flat_map(|j| (0..map.width).map(move |i| (i, j)))
+        .map(|(i, j)| map.best_layer(i, j))
+        .collect();
+    let categories = map
+        .localizers
+        .iter()
+        .enumerate()
+        .map(|(l, n)| (format!("{n} lowest"), line_colour(l)))
+        .collect();
+    figure::map_figure(&MapFigure {
+        title: format!("Sweep {sweep}: the localizer with the lowest mean error per location"),
+        subtitle: format!(
+            "{} m cells; white: never visited",
+            figure::format_number(map.resolution)
+        ),
+        base: base(world),
+        cells: Some(MapCells::categorical(
+            map.origin,
+            map.resolution,
+            (map.width, map.height),
+            values,
+            categories,
+        )),
+        ..MapFigure::default()
+    })
 }
 
 /// Writes the CSV and pictures of every cell's map; returns the files written.
 pub fn write_outputs(
     out: &Path,
+    sweep: &str,
     maps: &BTreeMap<usize, ErrorMap>,
     single_cell: bool,
 ) -> Result<Vec<PathBuf>, ScenarioError> {
@@ -266,22 +229,22 @@ pub fn write_outputs(
             ),
             Err(_) => None,
         };
-        let mut put = |name: String, bytes: Vec<u8>| -> Result<(), ScenarioError> {
-            let p = out.join(name);
-            write(&p, &bytes)?;
-            written.push(p);
-            Ok(())
-        };
-        let draw_err = |e: String| ScenarioError::field(out, "error_map", e);
-        put(format!("error_map{suffix}.csv"), map.to_csv().into_bytes())?;
+        let csv = out.join(format!("error_map{suffix}.csv"));
+        write(&csv, map.to_csv().as_bytes())?;
+        written.push(csv);
+        let fig_err = |e| ScenarioError::figure(out, e);
         for (l, name) in map.localizers.iter().enumerate() {
-            let png = localizer_png(map, l, world.as_ref()).map_err(draw_err)?;
-            put(format!("error_map{suffix}_{name}.png"), png)?;
+            let fig = localizer_figure(sweep, map, l, world.as_ref()).map_err(fig_err)?;
+            written.extend(
+                fig.write(out, &format!("error_map{suffix}_{name}"))
+                    .map_err(fig_err)?,
+            );
         }
-        put(
-            format!("error_map{suffix}_best.png"),
-            best_png(map, world.as_ref()).map_err(draw_err)?,
-        )?;
+        let fig = best_figure(sweep, map, world.as_ref()).map_err(fig_err)?;
+        written.extend(
+            fig.write(out, &format!("error_map{suffix}_best"))
+                .map_err(fig_err)?,
+        );
     }
     Ok(written)
 }
@@ -304,8 +267,9 @@ mod tests {
         assert_eq!(m1[&0].to_csv(), m2[&0].to_csv());
         assert_eq!(m1[&0].mean(0, 0, 0), Some((0.1, 2)));
         assert!(combine(&dir, &[(0, 2)]).is_err());
-        let png = best_png(&m1[&0], None).unwrap();
-        assert_eq!(&png[1..4], b"PNG");
+        let fig = best_figure("s", &m1[&0], None).unwrap();
+        assert!(fig.svg().contains("l lowest"));
+        assert_eq!(&fig.png().unwrap()[1..4], b"PNG");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -19,7 +19,6 @@ pub mod merge;
 pub mod origin;
 pub mod run;
 pub mod summary;
-pub mod text;
 
 pub use format::{Axis, Sweep};
 pub use merge::merge;

@@ -111,17 +111,15 @@ pub fn write_pictures(
     let mut written = Vec::new();
     let pics = heatmap::heatmaps(results, axes)
         .map_err(|msg| ScenarioError::field(out, "heatmap", msg))?;
-    for (name, png) in pics.pictures {
-        let p = out.join(name);
-        atrium_scenarios::output::write_atomic(&p, &png).map_err(|err| ScenarioError::Write {
-            file: p.clone(),
-            err,
-        })?;
-        written.push(p);
+    for (stem, fig) in pics.pictures {
+        written.extend(
+            fig.write(out, &stem)
+                .map_err(|e| ScenarioError::figure(out, e))?,
+        );
     }
     if let Some((trials, single)) = error_maps {
         let combined = maps::combine(out, trials)?;
-        written.extend(maps::write_outputs(out, &combined, single)?);
+        written.extend(maps::write_outputs(out, &results.name, &combined, single)?);
     }
     Ok((written, pics.skipped))
 }
