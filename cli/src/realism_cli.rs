@@ -2,8 +2,8 @@
 //! a real log, the simulated twin of a log scenario, and how far the twin's verdicts are
 //! from the real ones (see `atrium_scenarios::{calibrate, twin, realism}`).
 
-use atrium_scenarios::realism;
 use atrium_scenarios::{calibrate, output, twin, LocalizerRegistry, RunOptions, Scenario};
+use atrium_scenarios::{realism, realism_figures, ScenarioError};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -39,8 +39,9 @@ pub struct RealismArgs {
     /// Print the comparison as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Write realism.json, the twin (twin.toml, twin.urdf, twin.map.yaml/.pgm) and the
-    /// calibration here.
+    /// Write realism.json, the twin (twin.toml, twin.urdf, twin.map.yaml/.pgm), the
+    /// calibration and the pictures (realism_error, realism_drift, realism_map_real,
+    /// realism_map_twin; PNG and SVG) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Give the twin the calibrated systematic odometry errors only, no random slip (the
@@ -188,14 +189,14 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
                     )
                 })
                 .collect::<Result<_, _>>()?;
-            Ok((c, sims))
+            Ok((c, twin, sims))
         },
     );
     if temporary {
         let _ = std::fs::remove_dir_all(&dir);
     }
     let real = real?;
-    let (c, sims) = simulated?;
+    let (c, twin, sims) = simulated?;
     let dr = scenario
         .localizers
         .iter()
@@ -222,6 +223,20 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
             &d.join("calibration.toml"),
             calibrate::to_toml(&c).as_bytes(),
         )?;
+        for (stem, figure) in realism_figures::realism_figures(
+            &r,
+            &real,
+            &sims,
+            &scenario,
+            &twin,
+            scenario.metrics.converge_threshold_m,
+        )
+        .map_err(|e| ScenarioError::figure(d, e))?
+        {
+            figure
+                .write(d, &stem)
+                .map_err(|e| ScenarioError::figure(d, e))?;
+        }
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

@@ -128,6 +128,19 @@ fn calibrate_twin_and_realism_on_a_real_log() {
         "the twin's drift is the same on every seed: {r}"
     );
     assert!(out.join("realism.json").is_file() && out.join("twin.toml").is_file());
+    for stem in [
+        "realism_error",
+        "realism_drift",
+        "realism_map_real",
+        "realism_map_twin",
+    ] {
+        assert!(out.join(format!("{stem}.png")).is_file(), "{stem}.png");
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        assert!(
+            svg.contains("<text") && svg.contains("mit_short"),
+            "{stem}.svg"
+        );
+    }
     // The calibrated model's drift agrees with the real one: median, p90 and heading within
     // 0.67-1.5, and the real stretches fall within the seeds' range about as often as draws
     // of one process would.

@@ -30,6 +30,7 @@ pub mod node_route;
 pub mod output;
 pub mod plot;
 pub mod realism;
+pub mod realism_figures;
 pub mod reference_build;
 pub mod registry;
 pub mod relations;
