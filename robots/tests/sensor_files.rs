@@ -39,6 +39,9 @@ fn pioneer_sensor_file_sits_beside_its_urdf_and_matches_the_robot() {
             ticks_per_rev: 500,
             radius_error: 0.005,
             separation_error: 0.01,
+            // Fitted by `atrium calibrate` to the bundled real logs (see the file).
+            slip_sigma: 0.04,
+            slip_correlation_m: 0.05,
             rate_hz: 50.0,
             ..Default::default()
         }

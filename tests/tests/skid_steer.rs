@@ -42,6 +42,10 @@ fn skid_steer_odometry_drifts_more_in_heading_than_the_pioneers_on_the_same_rout
     assert_eq!(skid.waypoints, pioneer.waypoints, "the same route");
     assert_eq!(skid.route_jitter, pioneer.route_jitter, "the same jitter");
     assert_eq!(skid.start, pioneer.start);
+    // With the robots' random wheel slip the Pioneer's heading drift varies too (seeds 1-4:
+    // 0.37-0.81 rad; before the slip every seed drifted alike and skid4 drifted 3x more on
+    // each): skid4 drifts more on every seed, and twice as much over the four.
+    let (mut skid_sum, mut pioneer_sum) = (0.0, 0.0);
     for seed in [1, 2, 3, 4] {
         let (s, s_done) = heading_drift(&skid, seed);
         let (p, p_done) = heading_drift(&pioneer, seed);
@@ -50,9 +54,12 @@ fn skid_steer_odometry_drifts_more_in_heading_than_the_pioneers_on_the_same_rout
             s_done && p_done,
             "seed {seed}: both robots finish the route"
         );
-        assert!(
-            s > 3.0 * p && s > 0.3,
-            "seed {seed}: skid4 {s}, pioneer {p}"
-        );
+        assert!(s > p && s > 0.3, "seed {seed}: skid4 {s}, pioneer {p}");
+        skid_sum += s;
+        pioneer_sum += p;
     }
+    assert!(
+        skid_sum > 2.0 * pioneer_sum,
+        "over seeds 1-4: skid4 {skid_sum}, pioneer {pioneer_sum}"
+    );
 }
