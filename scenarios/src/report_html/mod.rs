@@ -78,6 +78,15 @@ impl Section {
         self
     }
 
+    /// An SVG document already drawn (a figure file read back), inlined with a caption.
+    pub fn svg(&mut self, svg: String, caption: impl Into<String>) -> &mut Section {
+        self.blocks.push(Block::Figure {
+            svg,
+            caption: caption.into(),
+        });
+        self
+    }
+
     /// A highlighted pass / fail line.
     pub fn verdict(&mut self, passed: bool, text: impl Into<String>) -> &mut Section {
         self.blocks.push(Block::Verdict {
