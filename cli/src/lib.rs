@@ -286,17 +286,15 @@ fn merge_notes(
     out_dir: &std::path::Path,
 ) {
     use atrium_experiments::sweep;
-    {
-        if let Some(w) = sweep::drive::unlike_drives(&sweep::drive::per_cell(&merged)) {
-            eprintln!("note: {w}");
-        }
-        eprintln!(
-            "merged {} rows from {} shards into {}",
-            merged.rows.len(),
-            shard_dirs.len(),
-            out_dir.display()
-        );
+    if let Some(w) = sweep::drive::unlike_drives(&sweep::drive::per_cell(merged)) {
+        eprintln!("note: {w}");
     }
+    eprintln!(
+        "merged {} rows from {} shards into {}",
+        merged.rows.len(),
+        shard_dirs.len(),
+        out_dir.display()
+    );
 }
 
 /// The sweep's file, summary.md and every figure of its folder, inline.
