@@ -297,7 +297,11 @@ fn merge_notes(
     );
 }
 
-/// The sweep's file, summary.md and every figure of its folder, inline.
+/// Figures inlined into a sweep's report at most (each is tens of kilobytes of SVG).
+const MAX_REPORT_FIGURES: usize = 60;
+
+/// The sweep's file, summary.md and every figure of its folder (up to
+/// [`MAX_REPORT_FIGURES`]), inline.
 fn sweep_report(
     rep: &mut report_cli::Report,
     file: Option<&std::path::Path>,
@@ -321,6 +325,14 @@ fn sweep_report(
     let s = html.section("Figures");
     if svgs.is_empty() {
         s.paragraph("The sweep drew no figures.");
+    }
+    if svgs.len() > MAX_REPORT_FIGURES {
+        s.paragraph(format!(
+            "The first {MAX_REPORT_FIGURES} of {} figures (by name); all are in {}.",
+            svgs.len(),
+            out.display()
+        ));
+        svgs.truncate(MAX_REPORT_FIGURES);
     }
     for p in svgs {
         if let Ok(svg) = std::fs::read_to_string(&p) {
