@@ -106,6 +106,7 @@ pub fn replay_command(
     localizers: Vec<(String, String)>,
     json: bool,
     out: Option<PathBuf>,
+    rep: &mut crate::report_cli::Report,
 ) -> anyhow::Result<bool> {
     // Before the replay, which may take long: a bad --out must not cost the whole run.
     if let Some(dir) = &out {
@@ -136,6 +137,15 @@ pub fn replay_command(
             eprintln!("wrote {} files to {}", written.len(), dir.display());
         }
     }
+    if let Some(html) = rep.html() {
+        html.section(format!("Replay of {}", file.display()))
+            .paragraph(format!(
+                "The recording's readings fed to the localizers of scenario {} and scored \
+             against its ground truth.",
+                r.scenario.name
+            ));
+    }
+    rep.run(&r.run, Some(&r.scenario.world))?;
     if json {
         let mut doc = report::to_json(&r.run);
         if let Some(o) = doc.as_object_mut() {

@@ -16,6 +16,7 @@ mod dataset_cli;
 mod generate_cli;
 mod map_cli;
 mod realism_cli;
+pub mod report_cli;
 mod score_cli;
 
 use anyhow::Context;
@@ -58,6 +59,9 @@ enum Command {
         min_pass: Option<usize>,
         #[arg(long)]
         json: bool,
+        /// Write one self-contained HTML report here (scenario, verdicts, tables, figures).
+        #[arg(long, value_name = "FILE.html")]
+        report: Option<PathBuf>,
         /// Do not read or write the on-disk cache of what runs learn from a world (WiFi
         /// graphs, likelihood fields, appearance, omnicam and ceiling maps, chooser
         /// training) (also `ATRIUM_NO_CACHE=1`).
@@ -86,6 +90,9 @@ enum Command {
         /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write one self-contained HTML report here (scenario, verdicts, tables, figures).
+        #[arg(long, value_name = "FILE.html")]
+        report: Option<PathBuf>,
         /// Do not read or write the on-disk cache of what runs learn from a world (WiFi
         /// graphs, likelihood fields, appearance, omnicam and ceiling maps, chooser
         /// training) (also `ATRIUM_NO_CACHE=1`).
@@ -155,6 +162,9 @@ enum Command {
         /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write one self-contained HTML report here (scenario, verdicts, tables, figures).
+        #[arg(long, value_name = "FILE.html")]
+        report: Option<PathBuf>,
     },
     /// Score another stack's estimates (TUM, CSV `t,x,y,theta`, or an MCAP pose topic)
     /// against a recording's ground truth, with the same metrics, tables, expectations and
@@ -218,6 +228,9 @@ struct SweepArgs {
     /// Output folder (default: sweep-<sweep file stem>).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Write one self-contained HTML report here (sweep file, summary, figures).
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
     /// Do not read or write the on-disk cache of what runs learn from a world (WiFi graphs,
     /// likelihood fields, appearance, omnicam and ceiling maps, chooser training) (also
     /// `ATRIUM_NO_CACHE=1`).
@@ -232,6 +245,9 @@ enum SweepAction {
         out_dir: PathBuf,
         #[arg(required = true)]
         shard_dirs: Vec<PathBuf>,
+        /// Write one self-contained HTML report here (summary and figures of the whole).
+        #[arg(long, value_name = "FILE.html")]
+        report: Option<PathBuf>,
     },
 }
 
@@ -243,23 +259,96 @@ fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, 
     if let Some(SweepAction::Merge {
         out_dir,
         shard_dirs,
+        report,
     }) = args.action
     {
-        let merged = sweep::merge(&out_dir, &shard_dirs)?;
-        if let Some(w) = sweep::drive::unlike_drives(&sweep::drive::per_cell(&merged)) {
-            eprintln!("note: {w}");
-        }
-        eprintln!(
-            "merged {} rows from {} shards into {}",
-            merged.rows.len(),
-            shard_dirs.len(),
-            out_dir.display()
-        );
-        return Ok(true);
+        let title = format!("atrium sweep merge {}", out_dir.display());
+        return reported(report, title, |rep| {
+            let merged = sweep::merge(&out_dir, &shard_dirs)?;
+            sweep_report(rep, None, &out_dir);
+            merge_notes(&merged, &shard_dirs, &out_dir);
+            Ok(true)
+        });
     }
     let file = args
         .sweep
+        .clone()
         .ok_or_else(|| anyhow::anyhow!("atrium sweep: give a sweep file (or `merge`)"))?;
+    let title = format!("atrium sweep {}", file.display());
+    reported(args.report.clone(), title, |rep| {
+        sweep_run(registry, args, file, rep)
+    })
+}
+
+fn merge_notes(
+    merged: &atrium_experiments::sweep::csv::Results,
+    shard_dirs: &[PathBuf],
+    out_dir: &std::path::Path,
+) {
+    use atrium_experiments::sweep;
+    if let Some(w) = sweep::drive::unlike_drives(&sweep::drive::per_cell(merged)) {
+        eprintln!("note: {w}");
+    }
+    eprintln!(
+        "merged {} rows from {} shards into {}",
+        merged.rows.len(),
+        shard_dirs.len(),
+        out_dir.display()
+    );
+}
+
+/// Figures inlined into a sweep's report at most (each is tens of kilobytes of SVG).
+const MAX_REPORT_FIGURES: usize = 60;
+
+/// The sweep's file, summary.md and every figure of its folder (up to
+/// [`MAX_REPORT_FIGURES`]), inline.
+fn sweep_report(
+    rep: &mut report_cli::Report,
+    file: Option<&std::path::Path>,
+    out: &std::path::Path,
+) {
+    if let Some(f) = file {
+        rep.scenario_text(f);
+    }
+    let Some(html) = rep.html() else { return };
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap_or_default();
+    html.section(format!("Summary ({})", out.join("summary.md").display()))
+        .pre(summary);
+    let mut svgs: Vec<PathBuf> = std::fs::read_dir(out)
+        .map(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+                .collect()
+        })
+        .unwrap_or_default();
+    svgs.sort();
+    let s = html.section("Figures");
+    if svgs.is_empty() {
+        s.paragraph("The sweep drew no figures.");
+    }
+    if svgs.len() > MAX_REPORT_FIGURES {
+        s.paragraph(format!(
+            "The first {MAX_REPORT_FIGURES} of {} figures (by name); all are in {}.",
+            svgs.len(),
+            out.display()
+        ));
+        svgs.truncate(MAX_REPORT_FIGURES);
+    }
+    for p in svgs {
+        if let Ok(svg) = std::fs::read_to_string(&p) {
+            let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+            s.svg(svg, name.unwrap_or_default());
+        }
+    }
+}
+
+fn sweep_run(
+    registry: &LocalizerRegistry,
+    args: SweepArgs,
+    file: PathBuf,
+    rep: &mut report_cli::Report,
+) -> Result<bool, BadInput> {
+    use atrium_experiments::sweep;
     let shard = args
         .shard
         .as_deref()
@@ -298,6 +387,7 @@ fn sweep_command(registry: &LocalizerRegistry, args: SweepArgs) -> Result<bool, 
         o.results_csv.display(),
         o.summary_md.display()
     );
+    sweep_report(rep, Some(&file), &settings.out);
     Ok(true)
 }
 
@@ -354,6 +444,27 @@ impl<E: Into<anyhow::Error>> From<E> for BadInput {
     }
 }
 
+impl std::fmt::Display for BadInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:#}", self.0)
+    }
+}
+
+/// Runs `work` with a [`report_cli::Report`] for `--report path` and writes it at the end
+/// (also on failure, with the error).
+fn reported(
+    path: Option<PathBuf>,
+    title: String,
+    work: impl FnOnce(&mut report_cli::Report) -> Result<bool, BadInput>,
+) -> Result<bool, BadInput> {
+    let mut rep = report_cli::Report::start(path, title)?;
+    let outcome = work(&mut rep);
+    rep.finish(outcome).map_err(|e| match e {
+        report_cli::FinishError::Command(e) => e,
+        report_cli::FinishError::Report(e) => BadInput(e),
+    })
+}
+
 fn print_json(v: &serde_json::Value) -> Result<(), BadInput> {
     println!("{}", serde_json::to_string_pretty(v)?);
     Ok(())
@@ -365,7 +476,9 @@ fn run(
     seed: Option<u64>,
     json: bool,
     out: Option<PathBuf>,
+    rep: &mut report_cli::Report,
 ) -> Result<bool, BadInput> {
+    rep.scenario_text(&scenario_path);
     let scenario = Scenario::load(&scenario_path)?;
     if let Some(dir) = &out {
         output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
@@ -401,12 +514,177 @@ fn run(
             eprintln!("wrote {} files to {}", written.len(), dir.display());
         }
     }
+    rep.run(&result, Some(&scenario.world))?;
     if json {
         print_json(&report::to_json(&result))?;
     } else {
         print!("{}", report::to_text(&result));
     }
     Ok(result.passed())
+}
+
+fn check_command(
+    registry: &LocalizerRegistry,
+    scenario_path: &std::path::Path,
+    seeds: &str,
+    min_pass: Option<usize>,
+    json: bool,
+    rep: &mut report_cli::Report,
+) -> Result<bool, BadInput> {
+    use atrium_experiments::seed_check;
+    let seeds = seed_check::parse_seeds(seeds).map_err(anyhow::Error::msg)?;
+    rep.scenario_text(scenario_path);
+    let scenario = Scenario::load(scenario_path)?;
+    let min_pass = min_pass.unwrap_or(seed_check::default_min_pass(seeds.len()));
+    let bar = atrium_scenarios::progress::counting(
+        atrium_scenarios::progress::on_terminal(json),
+        seeds.len() as u64,
+        &scenario.name,
+        "seeds",
+    );
+    // (seed, localizer, median position error) of every run, for the report's figure.
+    let medians = std::sync::Mutex::new(Vec::new());
+    let check = seed_check::check_seeds_observed(registry, &scenario, &seeds, min_pass, &|run| {
+        bar.inc(1);
+        let mut m = medians.lock().unwrap_or_else(|p| p.into_inner());
+        for l in &run.localizers {
+            if let Some(metrics) = &l.metrics {
+                m.push((run.seed, l.name.clone(), metrics.position_error.median));
+            }
+        }
+    })?;
+    bar.finish_and_clear();
+    if let Some(html) = rep.html() {
+        let medians = medians.into_inner().unwrap_or_else(|p| p.into_inner());
+        check_report(html, &check, medians)?;
+    }
+    if json {
+        print_json(&check.to_json())?;
+    } else {
+        print!("{}", check.to_text());
+    }
+    Ok(check.passed())
+}
+
+/// The check's verdict, its tables and the median error per seed.
+fn check_report(
+    html: &mut atrium_scenarios::report_html::HtmlReport,
+    check: &atrium_experiments::seed_check::SeedCheck,
+    mut medians: Vec<(u64, String, f64)>,
+) -> Result<(), BadInput> {
+    use atrium_scenarios::figure::{self, LineChart, Series, Threshold};
+    let num = figure::format_number;
+    let s = html.section(format!(
+        "Check of {} over {} seeds",
+        check.scenario,
+        check.seeds.len()
+    ));
+    s.verdict(
+        check.passed(),
+        format!(
+            "passed on {} of {} seeds (at least {} needed)",
+            check.passed_seeds(),
+            check.seeds.len(),
+            check.min_pass
+        ),
+    );
+    s.table(
+        &[
+            "localizer",
+            "metric",
+            "bound",
+            "held on",
+            "min",
+            "median",
+            "max",
+            "missing",
+        ],
+        check
+            .expectations
+            .iter()
+            .map(|e| {
+                vec![
+                    e.localizer.clone(),
+                    e.metric.clone(),
+                    format!(
+                        "{} {}",
+                        match e.bound {
+                            atrium_scenarios::verdict::Bound::Max => "≤",
+                            atrium_scenarios::verdict::Bound::Min => "≥",
+                        },
+                        num(e.limit)
+                    ),
+                    format!("{} of {}", e.held, check.seeds.len()),
+                    e.min.map_or("-".into(), num),
+                    e.median.map_or("-".into(), num),
+                    e.max.map_or("-".into(), num),
+                    e.missing.to_string(),
+                ]
+            })
+            .collect(),
+    );
+    s.table(
+        &[
+            "seed",
+            "verdict",
+            "distance (m)",
+            "route completed",
+            "failed expectations",
+        ],
+        check
+            .outcomes
+            .iter()
+            .map(|o| {
+                vec![
+                    o.seed.to_string(),
+                    if o.passed { "PASS" } else { "FAIL" }.into(),
+                    num(o.distance_m),
+                    if o.route_completed { "yes" } else { "no" }.into(),
+                    o.failures.join("; "),
+                ]
+            })
+            .collect(),
+    );
+    medians.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.cmp(&b.0)));
+    let mut names: Vec<String> = medians.iter().map(|m| m.1.clone()).collect();
+    names.dedup();
+    let series: Vec<Series> = names
+        .iter()
+        .map(|n| {
+            Series::new(
+                n.clone(),
+                medians
+                    .iter()
+                    .filter(|m| &m.1 == n)
+                    .map(|m| (m.0 as f64, m.2))
+                    .collect(),
+            )
+        })
+        .collect();
+    let thresholds = check
+        .expectations
+        .iter()
+        .filter(|e| e.metric == "median" || e.metric == "position_error.median")
+        .map(|e| Threshold::new(e.limit, format!("{} bound", e.localizer)))
+        .collect();
+    if !series.is_empty() {
+        let fig = figure::line_chart(&LineChart {
+            title: format!("{}: median position error per seed", check.scenario),
+            subtitle: format!("{} seeds, one run each", check.seeds.len()),
+            x_label: "seed".into(),
+            y_label: "median position error (m)".into(),
+            series,
+            thresholds,
+            y_range: None,
+            y_from_zero: true,
+        })
+        .map_err(anyhow::Error::from)?;
+        s.figure(
+            &fig,
+            "Each localizer's median position error on every seed.",
+        );
+    }
+    Ok(())
 }
 
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
@@ -418,22 +696,16 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             seeds,
             min_pass,
             json,
+            report,
             no_cache,
         }) => {
             if no_cache {
                 atrium_scenarios::disk_cache::set_enabled(false);
             }
-            use atrium_experiments::seed_check;
-            let seeds = seed_check::parse_seeds(&seeds).map_err(anyhow::Error::msg)?;
-            let scenario = Scenario::load(&scenario)?;
-            let min_pass = min_pass.unwrap_or(seed_check::default_min_pass(seeds.len()));
-            let check = seed_check::check_seeds(registry, &scenario, &seeds, min_pass)?;
-            if json {
-                print_json(&check.to_json())?;
-            } else {
-                print!("{}", check.to_text());
-            }
-            Ok(check.passed())
+            let title = format!("atrium check {}", scenario.display());
+            reported(report, title, |rep| {
+                check_command(registry, &scenario, &seeds, min_pass, json, rep)
+            })
         }
         Some(Command::Nodes {
             scenario,
@@ -466,18 +738,23 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             None,
             false,
             None,
+            &mut report_cli::Report::start(None, "")?,
         ),
         Some(Command::Run {
             scenario,
             seed,
             json,
             out,
+            report,
             no_cache,
         }) => {
             if no_cache {
                 atrium_scenarios::disk_cache::set_enabled(false);
             }
-            run(registry, scenario, seed, json, out)
+            let title = format!("atrium run {}", scenario.display());
+            reported(report, title, |rep| {
+                run(registry, scenario, seed, json, out, rep)
+            })
         }
         Some(Command::Inspect {
             what: InspectWhat::Robot { urdf, json },
@@ -574,10 +851,21 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             localizers,
             json,
             out,
-        }) => Ok(dataset_cli::replay_command(
-            registry, &file, scenario, localizers, json, out,
-        )?),
-        Some(Command::Score(args)) => Ok(score_cli::score_command(args)?),
+            report,
+        }) => {
+            let title = format!("atrium replay {}", file.display());
+            reported(report, title, |rep| {
+                Ok(dataset_cli::replay_command(
+                    registry, &file, scenario, localizers, json, out, rep,
+                )?)
+            })
+        }
+        Some(Command::Score(args)) => {
+            let title = format!("atrium score {}", args.estimates.display());
+            reported(args.report.clone(), title, |rep| {
+                Ok(score_cli::score_command(args, rep)?)
+            })
+        }
         Some(Command::Sweep(args)) => sweep_command(registry, args),
         Some(Command::Generate(args)) => Ok(generate_cli::generate_command(args)?),
         Some(Command::Map { what }) => Ok(map_cli::map_command(what)?),

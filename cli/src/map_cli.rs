@@ -192,15 +192,24 @@ fn build_command(args: BuildArgs) -> anyhow::Result<bool> {
         reference_accuracy_m: None,
     };
     let log = RealLog::load(&pseudo, &table, None).map_err(|e| flag_errors(e, &pseudo))?;
-    let (grid, summary) =
-        atrium_scenarios::map_build::build_map(&log, args.resolution, args.max_range).map_err(
-            |e| match e {
-                ScenarioError::Field { field, msg, .. } if field.starts_with("--") => {
-                    anyhow::anyhow!("{field}: {msg}")
-                }
-                other => other.into(),
-            },
-        )?;
+    let bar = atrium_scenarios::progress::counting(
+        atrium_scenarios::progress::on_terminal(args.json),
+        log.scans.len() as u64,
+        "map build",
+        "scans",
+    );
+    let (grid, summary) = atrium_scenarios::map_build::build_map_with_progress(
+        &log,
+        args.resolution,
+        args.max_range,
+        &bar,
+    )
+    .map_err(|e| match e {
+        ScenarioError::Field { field, msg, .. } if field.starts_with("--") => {
+            anyhow::anyhow!("{field}: {msg}")
+        }
+        other => other.into(),
+    })?;
     atrium_formats::ros_map::write_map(&grid, yaml)?;
     if args.json {
         let mut doc = serde_json::to_value(&summary)?;

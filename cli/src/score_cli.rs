@@ -32,6 +32,9 @@ pub struct ScoreArgs {
     /// Write trajectories (TUM), metrics.json and pictures (SVG, PNG) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Write one self-contained HTML report here (verdicts, tables, figures).
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
 }
 
 /// Refuses an `--out` folder where writing the report would replace the estimates file.
@@ -64,7 +67,7 @@ fn check_out(dir: &Path, estimates: &Path, name: Option<&str>) -> anyhow::Result
 
 /// `atrium score RECORDING ESTIMATES [--name N] [--scenario S] [--topic T] [--json]
 /// [--out DIR]`.
-pub fn score_command(args: ScoreArgs) -> anyhow::Result<bool> {
+pub fn score_command(args: ScoreArgs, rep: &mut crate::report_cli::Report) -> anyhow::Result<bool> {
     if let Some(dir) = &args.out {
         check_out(dir, &args.estimates, args.name.as_deref())?;
         output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
@@ -106,6 +109,18 @@ pub fn score_command(args: ScoreArgs) -> anyhow::Result<bool> {
             eprintln!("wrote {} files to {}", written.len(), dir.display());
         }
     }
+    if let Some(html) = rep.html() {
+        let sec = html.section(format!("Score of {}", args.estimates.display()));
+        sec.paragraph(format!(
+            "{} against {}",
+            s.headline(),
+            args.recording.display()
+        ));
+        for w in &s.warnings {
+            sec.paragraph(format!("warning: {w}"));
+        }
+    }
+    rep.run(&s.run, Some(&s.scenario.world))?;
     if args.json {
         let mut doc = s.to_json();
         if let Some(o) = doc.as_object_mut() {

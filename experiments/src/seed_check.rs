@@ -197,6 +197,18 @@ pub fn check_seeds(
     seeds: &[u64],
     min_pass: usize,
 ) -> Result<SeedCheck, ScenarioError> {
+    check_seeds_observed(registry, scenario, seeds, min_pass, &|_| {})
+}
+
+/// [`check_seeds`], calling `on_run` with every run as it finishes (from the worker threads,
+/// in any order): a progress bar counts them, a report keeps what it draws.
+pub fn check_seeds_observed(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    seeds: &[u64],
+    min_pass: usize,
+    on_run: &(dyn Fn(&atrium_scenarios::RunResult) + Sync),
+) -> Result<SeedCheck, ScenarioError> {
     if min_pass > seeds.len() {
         return Err(ScenarioError::field(
             &scenario.file,
@@ -213,9 +225,11 @@ pub fn check_seeds(
                 seed: Some(seed),
                 ..RunOptions::default()
             };
-            registry.run(scenario, options)
+            let run = registry.run(scenario, options)?;
+            on_run(&run);
+            Ok(run)
         })
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect::<Result<Vec<_>, ScenarioError>>()?;
     let mut outcomes = Vec::with_capacity(runs.len());
     // (localizer, metric, bound, limit) → values per seed, in the scenario's order.
     type Claim = (String, String, Bound, f64);

@@ -6,8 +6,8 @@
 //! Modules depend one way, in this order: the format (`error`, `seeds`, `trajectory`, `scenario`,
 //! `camera_sensors`, `route_jitter`, `node_route`) → expectations (`verdict`, `metrics`,
 //! `relations`, `slam`, `expect`) → `runner` → `maps` and `registry` → `builtins` and `error_maps` →
-//! reports (`report`, `output`, `plot`, `slam_plot`), drawn with `figure`; files are
-//! written through `atomic`.
+//! reports (`report`, `output`, `plot`, `slam_plot`), drawn with `figure`, `report_html` for
+//! `--report`; files are written through `atomic`; `progress` draws bars on a terminal.
 
 pub mod atomic;
 pub mod builtins;
@@ -29,12 +29,14 @@ pub mod metrics;
 pub mod node_route;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod realism;
 pub mod realism_figures;
 pub mod reference_build;
 pub mod registry;
 pub mod relations;
 pub mod report;
+pub mod report_html;
 pub mod route_jitter;
 pub mod runner;
 pub mod scenario;

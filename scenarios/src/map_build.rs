@@ -45,6 +45,22 @@ pub fn build_map(
     resolution: f64,
     max_range: f64,
 ) -> Result<(OccupancyGrid, MapSummary), ScenarioError> {
+    build_map_with_progress(
+        log,
+        resolution,
+        max_range,
+        &indicatif::ProgressBar::hidden(),
+    )
+}
+
+/// [`build_map`], counting the scans inserted on `bar` (see [`crate::progress::counting`];
+/// its length is set to the scans the reference covers).
+pub fn build_map_with_progress(
+    log: &RealLog,
+    resolution: f64,
+    max_range: f64,
+    bar: &indicatif::ProgressBar,
+) -> Result<(OccupancyGrid, MapSummary), ScenarioError> {
     let bad = |field: &str, msg: String| ScenarioError::field(&log.path, field, msg);
     if !(resolution.is_finite() && (0.005..=1.0).contains(&resolution)) {
         return Err(bad(
@@ -73,7 +89,9 @@ pub fn build_map(
         .map_err(|e| bad("--resolution", e.to_string()))?;
     let mut ranges: Vec<f64> = Vec::new();
     let mut beams_used = 0;
+    bar.set_length(placed.len() as u64);
     for (i, pose) in &placed {
+        bar.inc(1);
         let s = &log.scans[*i];
         ranges.clear();
         ranges.extend(
@@ -90,6 +108,7 @@ pub fn build_map(
             s.range_max,
         );
     }
+    bar.finish_and_clear();
     let grid = crop(&mapper.to_grid(logit(OCCUPIED_P), logit(FREE_P)), 0.5);
     let count = |c: Cell| grid.cells.iter().filter(|x| **x == c).count();
     let summary = MapSummary {

@@ -66,6 +66,7 @@ pub fn trajectory_figure(
         None => format!("{truth_label} black, the estimate coloured by its position error"),
     };
     let truth: Vec<[f64; 2]> = run.ground_truth.iter().map(|(_, p)| [p.x, p.y]).collect();
+    let view = path_view(truth.iter().chain(&points), world);
     map_figure(&MapFigure {
         title: run_title(run, loc),
         subtitle,
@@ -78,8 +79,43 @@ pub fn trajectory_figure(
             colour_label: "position error (m)".into(),
             scale: error_scale(max),
         }),
+        view,
         ..MapFigure::default()
     })
+}
+
+/// The part of the world around the paths: their extent with a margin of 10 % (at least
+/// 2 m), within the world's bounds. A short run in a large building is then readable.
+pub fn path_view<'a>(
+    points: impl Iterator<Item = &'a [f64; 2]>,
+    world: &World,
+) -> Option<([f64; 2], [f64; 2])> {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in points.filter(|p| p[0].is_finite() && p[1].is_finite()) {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if lo[0] > hi[0] {
+        return None;
+    }
+    let margin = (0.1 * (hi[0] - lo[0]).max(hi[1] - lo[1])).max(2.0);
+    let (wlo, whi) = if world.walls.is_empty() && world.pillars.is_empty() {
+        ([f64::NEG_INFINITY; 2], [f64::INFINITY; 2])
+    } else {
+        world.bounds()
+    };
+    let a = [
+        (lo[0] - margin).max(wlo[0].min(lo[0])),
+        (lo[1] - margin).max(wlo[1].min(lo[1])),
+    ];
+    let b = [
+        (hi[0] + margin).min(whi[0].max(hi[0])),
+        (hi[1] + margin).min(whi[1].max(hi[1])),
+    ];
+    (b[0] > a[0] && b[1] > a[1]).then_some((a, b))
 }
 
 #[cfg(test)]
@@ -92,5 +128,18 @@ mod tests {
         assert_eq!((s.lo, s.hi), (0.01, 1.0));
         assert_eq!(error_scale(7.0).hi, 7.0);
         assert!(s.t(0.1) > 0.45 && s.t(0.1) < 0.55);
+    }
+
+    #[test]
+    fn a_short_path_is_shown_with_its_surroundings_within_the_world() {
+        let world = World::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../worlds/campus.toml"),
+        )
+        .unwrap();
+        let (wlo, _) = world.bounds();
+        let pts = [[2.0, 20.0], [8.0, 20.0]];
+        let (lo, hi) = path_view(pts.iter(), &world).unwrap();
+        assert_eq!(hi, [10.0, 22.0]);
+        assert_eq!(lo, [wlo[0].max(0.0), 18.0]);
     }
 }

@@ -67,7 +67,7 @@ pub(crate) fn unique_names(names: Vec<String>) -> Vec<String> {
 
 /// Longest label drawn, characters: longer axis values and paths are cut (with `~`) so a
 /// picture's size does not grow with them.
-const MAX_LABEL: usize = 24;
+const MAX_LABEL: usize = 48;
 
 /// `s` cut to [`MAX_LABEL`] characters.
 pub(crate) fn clip(s: &str) -> String {

@@ -217,8 +217,14 @@ impl ColourScale {
             if out.len() > 8 {
                 out.retain(|v| (v.log10() - v.log10().round()).abs() < 1e-9);
             }
-            if out.len() < 2 {
-                out = vec![self.lo, self.hi];
+            if out.len() < 3 {
+                // Less than a decade: round linear steps read better than the ends.
+                let linear = super::nice_ticks(self.lo, self.hi, 4);
+                out = if linear.len() >= 2 {
+                    linear
+                } else {
+                    vec![self.lo, self.hi]
+                };
             }
             out
         } else {
@@ -270,5 +276,12 @@ mod tests {
         assert!((l.value(l.t(0.3)) - 0.3).abs() < 1e-9);
         assert_eq!(l.ticks().first().copied(), Some(0.01));
         assert_eq!(l.ticks().last().copied(), Some(10.0));
+        // Within a decade: round steps, not the range's ends.
+        let narrow = ColourScale::auto([0.002255, 0.009398], true);
+        let t = narrow.ticks();
+        assert_eq!(t.len(), 3);
+        for (a, b) in t.iter().zip([0.004, 0.006, 0.008]) {
+            assert!((a - b).abs() < 1e-12, "{t:?}");
+        }
     }
 }
