@@ -2,8 +2,11 @@
 //! a real log, the simulated twin of a log scenario, and how far the twin's verdicts are
 //! from the real ones (see `atrium_scenarios::{calibrate, twin, realism}`).
 
+use crate::report_cli::{FinishError, Report};
+use atrium_scenarios::figure::Figure;
+use atrium_scenarios::report_html::HtmlReport;
 use atrium_scenarios::{calibrate, output, twin, LocalizerRegistry, RunOptions, Scenario};
-use atrium_scenarios::{realism, realism_figures, ScenarioError};
+use atrium_scenarios::{progress, realism, realism_figures, ScenarioError};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -48,6 +51,10 @@ pub struct RealismArgs {
     /// odometry model Atrium had before calibration), to see what the random part changes.
     #[arg(long)]
     pub systematic_only: bool,
+    /// Write one self-contained HTML report here (scenario, the comparison's tables and the
+    /// pictures).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
 }
 
 fn load_log_scenario(path: &Path) -> anyhow::Result<Scenario> {
@@ -150,12 +157,28 @@ pub fn twin_command(args: TwinArgs) -> anyhow::Result<bool> {
 }
 
 pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyhow::Result<bool> {
+    let mut report = Report::start(
+        args.report.clone(),
+        format!("Realism of {}", args.scenario.display()),
+    )?;
+    let outcome = realism(registry, &args, &mut report);
+    report.finish(outcome).map_err(|e| match e {
+        FinishError::Command(e) | FinishError::Report(e) => e,
+    })
+}
+
+fn realism(
+    registry: &LocalizerRegistry,
+    args: &RealismArgs,
+    report: &mut Report,
+) -> anyhow::Result<bool> {
     let seeds =
         atrium_experiments::seed_check::parse_seeds(&args.seeds).map_err(anyhow::Error::msg)?;
     if let Some(d) = &args.out {
         output::check_writable_dir(d, "--out").map_err(anyhow::Error::msg)?;
     }
     let scenario = load_log_scenario(&args.scenario)?;
+    report.scenario_text(&args.scenario);
     // The twin lives in --out, else in a temporary folder removed afterwards.
     let (dir, temporary) = match &args.out {
         Some(d) => (d.clone(), false),
@@ -177,18 +200,27 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
             let twin_file = dir.join("twin.toml");
             write_twin(&scenario, &c, &twin_file)?;
             let twin = Scenario::load(&twin_file)?;
+            let bar = progress::counting(
+                progress::on_terminal(args.json),
+                seeds.len() as u64,
+                "twin runs",
+                "seeds",
+            );
             let sims: Vec<_> = seeds
                 .par_iter()
                 .map(|&seed| {
-                    registry.run(
+                    let run = registry.run(
                         &twin,
                         RunOptions {
                             seed: Some(seed),
                             ..RunOptions::default()
                         },
-                    )
+                    );
+                    bar.inc(1);
+                    run
                 })
                 .collect::<Result<_, _>>()?;
+            bar.finish_and_clear();
             Ok((c, twin, sims))
         },
     );
@@ -223,7 +255,10 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
             &d.join("calibration.toml"),
             calibrate::to_toml(&c).as_bytes(),
         )?;
-        for (stem, figure) in realism_figures::realism_figures(
+    }
+    if args.out.is_some() || report.html().is_some() {
+        let at = args.out.as_deref().unwrap_or(Path::new("--report"));
+        let figures = realism_figures::realism_figures(
             &r,
             &real,
             &sims,
@@ -231,11 +266,16 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
             &twin,
             scenario.metrics.converge_threshold_m,
         )
-        .map_err(|e| ScenarioError::figure(d, e))?
-        {
-            figure
-                .write(d, &stem)
-                .map_err(|e| ScenarioError::figure(d, e))?;
+        .map_err(|e| ScenarioError::figure(at, e))?;
+        if let Some(d) = &args.out {
+            for (stem, figure) in &figures {
+                figure
+                    .write(d, stem)
+                    .map_err(|e| ScenarioError::figure(d, e))?;
+            }
+        }
+        if let Some(html) = report.html() {
+            add_realism(html, &r, &figures);
         }
     }
     if args.json {
@@ -244,4 +284,111 @@ pub fn realism_command(registry: &LocalizerRegistry, args: RealismArgs) -> anyho
         print!("{}", realism::to_text(&r));
     }
     Ok(true)
+}
+
+/// The realism sections of an HTML report: the localizers' and the drift's tables, real
+/// against simulated, and the pictures.
+fn add_realism(html: &mut HtmlReport, r: &realism::Realism, figures: &[(String, Figure)]) {
+    let ratio = |v: Option<f64>| v.map_or("not compared".to_string(), |v| format!("{v:.2}"));
+    let rows = r
+        .localizers
+        .iter()
+        .map(|l| {
+            vec![
+                l.name.clone(),
+                format!("{:.3} / {:.3}", l.real.median, l.real.p95),
+                format!(
+                    "{:.3} / {:.3} ({:.3}–{:.3})",
+                    l.sim.median, l.sim.p95, l.sim_spread.median[0], l.sim_spread.median[1]
+                ),
+                format!("{} / {}", ratio(l.ratio.median), ratio(l.ratio.p95)),
+                format!(
+                    "{:.1} % / {:.1} %",
+                    100.0 * l.real.failed_time_frac,
+                    100.0 * l.sim.failed_time_frac
+                ),
+            ]
+        })
+        .collect();
+    let s = html.section("Localizers, real log against the twin");
+    s.paragraph(format!(
+        "Position error against the reference, m; simulated figures are medians over seeds \
+         {:?} with the range of the median in brackets. A ratio sim/real within {:.2}–{:.2} \
+         would have given the same verdict.",
+        r.seeds,
+        realism::AGREEMENT.0,
+        realism::AGREEMENT.1
+    ));
+    s.table(
+        &[
+            "localizer",
+            "real median / p95",
+            "twin median / p95",
+            "ratio median / p95",
+            "time failed, real / twin",
+        ],
+        rows,
+    );
+    for l in &r.localizers {
+        s.verdict(
+            l.agrees,
+            format!(
+                "{}: {}",
+                l.name,
+                if l.agrees { "agrees" } else { "does not agree" }
+            ),
+        );
+    }
+    if let Some(d) = &r.drift {
+        let s = html.section("Dead-reckoning drift over 10 m stretches");
+        s.table(
+            &["", "real", "twin", "twin range over seeds", "ratio"],
+            vec![
+                vec![
+                    "median, % of distance".into(),
+                    format!("{:.2}", d.real.median_pct),
+                    format!("{:.2}", d.sim.median_pct),
+                    format!(
+                        "{:.2}–{:.2}",
+                        d.sim_spread.median_pct[0], d.sim_spread.median_pct[1]
+                    ),
+                    format!("{:.2}", d.ratio.median_pct),
+                ],
+                vec![
+                    "90th percentile, %".into(),
+                    format!("{:.2}", d.real.p90_pct),
+                    format!("{:.2}", d.sim.p90_pct),
+                    format!(
+                        "{:.2}–{:.2}",
+                        d.sim_spread.p90_pct[0], d.sim_spread.p90_pct[1]
+                    ),
+                    format!("{:.2}", d.ratio.p90_pct),
+                ],
+                vec![
+                    "heading, °/m".into(),
+                    format!("{:.3}", d.real.heading_deg_per_m),
+                    format!("{:.3}", d.sim.heading_deg_per_m),
+                    format!(
+                        "{:.3}–{:.3}",
+                        d.sim_spread.heading_deg_per_m[0], d.sim_spread.heading_deg_per_m[1]
+                    ),
+                    format!("{:.2}", d.ratio.heading_deg_per_m),
+                ],
+            ],
+        );
+        s.verdict(
+            d.agrees,
+            format!(
+                "drift {}: real stretches within the twin's range {:.0} % of the time \
+                 (draws of one process: {:.0} %)",
+                if d.agrees { "agrees" } else { "does not agree" },
+                100.0 * d.coverage,
+                100.0 * d.coverage_expected
+            ),
+        );
+    }
+    let s = html.section("Pictures");
+    for (stem, f) in figures {
+        s.figure(f, stem.clone());
+    }
 }

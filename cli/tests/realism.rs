@@ -87,6 +87,8 @@ fn calibrate_twin_and_realism_on_a_real_log() {
         "--json",
         "--out",
         out.to_str().unwrap(),
+        "--report",
+        dir.join("realism.html").to_str().unwrap(),
     ]);
     assert_eq!(
         o.status.code(),
@@ -141,6 +143,10 @@ fn calibrate_twin_and_realism_on_a_real_log() {
             "{stem}.svg"
         );
     }
+    // One self-contained report with the comparison and the pictures inline.
+    let html = std::fs::read_to_string(dir.join("realism.html")).unwrap();
+    assert!(html.contains("Dead-reckoning drift") && html.matches("<svg").count() >= 4);
+    assert!(!html.contains("https://") && !html.contains("src="));
     // The calibrated model's drift agrees with the real one: median, p90 and heading within
     // 0.67-1.5, and the real stretches fall within the seeds' range about as often as draws
     // of one process would.
