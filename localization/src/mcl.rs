@@ -7,7 +7,7 @@ use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
-use crate::likelihood_field::{validate_grid, Headings, LikelihoodField, LikelihoodFieldParams};
+use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
     check_count, check_count_min1, check_grid, check_positive, MAX_BEAMS, MAX_GLOBAL_PARTICLES,
     MCL_MAX_GRID_CELLS,
@@ -15,6 +15,7 @@ use crate::limits::{
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::FitTracker;
 use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
+use crate::particles::Headings;
 use crate::resampling::ResamplePolicy;
 use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
