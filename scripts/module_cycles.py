@@ -304,8 +304,11 @@ class Crate:
     @staticmethod
     def used_outside_uses(f, name):
         for m in re.finditer(r"(?<![\w:])" + re.escape(name) + r"\b", f.code):
-            if not any(a <= m.start() < b for a, b in f.use_ranges):
-                return True
+            if any(a <= m.start() < b for a, b in f.use_ranges):
+                continue
+            if re.search(r"\bmod\s+$", f.code[max(0, m.start() - 8):m.start()]):
+                continue  # the child's own `mod name;` declaration
+            return True
         return False
 
 
