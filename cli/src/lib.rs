@@ -175,8 +175,8 @@ enum Command {
     Sweep(SweepArgs),
     /// Measure whole-run throughput on this machine.
     Bench {
-        /// all, corridor_tracking, tour, cgr_corridor, laser, empca or sweep (`atrium bench
-        /// sweep SWEEP`).
+        /// all, corridor_tracking, tour, cgr_corridor, laser, empca, ros1_bag or sweep (`atrium
+        /// bench sweep SWEEP`).
         #[arg(default_value = "all")]
         what: String,
         /// sweep: the sweep file to measure.

@@ -6,13 +6,14 @@ use atrium_scenarios::{run_scenario, RunOptions};
 use serde_json::{json, Value};
 use std::time::Instant;
 
-pub const WHAT: [&str; 6] = [
+pub const WHAT: [&str; 7] = [
     "all",
     "corridor_tracking",
     "tour",
     "cgr_corridor",
     "laser",
     "empca",
+    "ros1_bag",
 ];
 
 fn machine() -> Value {
@@ -103,6 +104,27 @@ pub fn laser() -> Result<Value, String> {
     }))
 }
 
+/// Reading the bundled ROS 1 bag whole (`datasets/fr079/fr079.orig.bag`, bz2 chunks): every
+/// scan, odometry and /tf message and the static mount, as `atrium replay` of the log does.
+pub fn ros1_bag() -> Result<Value, String> {
+    let path = atrium_scenarios::bundled_scenarios_dir().join("../datasets/fr079/fr079.orig.bag");
+    let started = Instant::now();
+    let log = atrium_formats::robot_log::RobotLog::open(&path).map_err(|e| e.to_string())?;
+    let scans = log.scans("/scan").map_err(|e| e.to_string())?;
+    let odometry = log.odometry("/odom").map_err(|e| e.to_string())?;
+    let tf = log.transforms("/tf").map_err(|e| e.to_string())?;
+    let mount = log.static_transforms().map_err(|e| e.to_string())?;
+    let secs = started.elapsed().as_secs_f64();
+    Ok(json!({
+        "file": "datasets/fr079/fr079.orig.bag",
+        "seconds": secs,
+        "scans": scans.len(),
+        "odometry": odometry.len(),
+        "tf": tf.len(),
+        "static_transforms": mount.len(),
+    }))
+}
+
 pub fn run(what: &str) -> Result<Value, String> {
     let mut doc = serde_json::Map::new();
     doc.insert("machine".into(), machine());
@@ -117,6 +139,9 @@ pub fn run(what: &str) -> Result<Value, String> {
     if what == "all" || what == "empca" {
         let b = crate::bench_appearance::EmPcaBench::default();
         doc.insert("empca".into(), crate::bench_appearance::empca(&b)?);
+    }
+    if what == "all" || what == "ros1_bag" {
+        doc.insert("ros1_bag".into(), ros1_bag()?);
     }
     if doc.len() == 1 {
         return Err(format!(

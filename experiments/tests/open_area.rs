@@ -8,7 +8,7 @@
 //! the smallest maximum and median, and the worst CGR end error is several times WiFi's
 //! worst; and, on this seed as on 6 of those 7, the laser has the largest maximum (the
 //! paper's 14.77 m: it matched furniture to walls). The orderings of the minima and of the
-//! laser's median vary with the seed (see NOTES), so they are not asserted.
+//! laser's median vary with the seed (see docs/design/0006-mcl-defaults.md and 0032-particle-budgets.md), so they are not asserted.
 
 #[allow(dead_code)] // this test uses only `tmpdir`
 mod common;

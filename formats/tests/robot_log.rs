@@ -339,21 +339,17 @@ fn truncated_and_flipped_real_files_never_panic_nor_read_short() {
     }
 }
 
-/// Reading the whole ROS 1 bag (bz2) is fast; timed in release builds only.
+/// The whole ROS 1 bag (bz2 chunks) reads: every scan, odometry and /tf message and the
+/// static mount. How long it takes is measured by `atrium bench ros1_bag`, not here.
 #[test]
-#[cfg_attr(debug_assertions, ignore = "timed in release builds")]
-fn the_whole_ros1_bag_reads_well_under_a_second() {
-    let t = std::time::Instant::now();
+fn the_whole_ros1_bag_reads() {
     let log = open(ROS1);
     let scans = log.scans("/scan").unwrap();
     let odom = log.odometry("/odom").unwrap();
     let tf = log.transforms("/tf").unwrap();
     let mount = log.static_transforms().unwrap();
-    let dt = t.elapsed().as_secs_f64();
     assert_eq!(
         (scans.len(), odom.len(), tf.len(), mount.len()),
         (4934, 8951, 8951, 1)
     );
-    assert!(dt < 1.0, "{dt} s");
-    eprintln!("fr079.orig.bag: scans, odometry, /tf and /tf_static in {dt:.3} s");
 }

@@ -3,7 +3,7 @@
 //! max-range failure and uniform noise. Unlike the likelihood field it ray-casts every beam on
 //! the map, so it uses the beams that return nothing (in a glass corridor, half of them) and
 //! it sees which wall a beam meets first, at many times the cost: on the route of
-//! corridor_tracking its filter took 22 s against the likelihood field's 0.8 s (NOTES.md's
+//! corridor_tracking its filter took 22 s against the likelihood field's 0.8 s (BENCHMARKS.md's
 //! real-time table, corridor_tracking_beam against corridor_tracking).
 //!
 //! Ray casting sphere-traces the likelihood field's distance transform: from the sensor the

@@ -39,6 +39,7 @@ pub mod pose_graph;
 pub mod resampling;
 pub mod scan_match;
 pub mod shared_member;
+mod simd;
 pub mod wifi_graph;
 pub mod wifi_mcl;
 

@@ -5,95 +5,12 @@
 
 use crate::error::LocalizationError;
 use crate::limits::check_positive;
-use crate::particles::HeadingTrig;
+use crate::particles::Poses;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::GridTable;
 use atrium_worlds::{Cell, OccupancyGrid};
 
 mod avx2;
-
-/// Whether this processor runs the crate's AVX2 kernels.
-pub(crate) fn avx2_available() -> bool {
-    avx2::available()
-}
-
-#[cfg(target_arch = "x86_64")]
-pub(crate) use avx2::within as avx2_within;
-
-/// Poses as columns, with their headings' sines and cosines: computed once for all the beams
-/// of a scan.
-#[derive(Debug, Clone, Copy)]
-pub struct Poses<'a> {
-    pub x: &'a [f64],
-    pub y: &'a [f64],
-    pub sin: &'a [f64],
-    pub cos: &'a [f64],
-}
-
-impl<'a> Poses<'a> {
-    /// The first `n` poses (all four columns cut to `n`: panics if one is shorter).
-    pub fn first(self, n: usize) -> Poses<'a> {
-        Poses {
-            x: &self.x[..n],
-            y: &self.y[..n],
-            sin: &self.sin[..n],
-            cos: &self.cos[..n],
-        }
-    }
-}
-
-/// The sines and cosines of headings, kept between scans so that filling them allocates
-/// nothing once the columns have grown.
-#[derive(Debug, Clone, Default)]
-pub struct Headings {
-    sin: Vec<f64>,
-    cos: Vec<f64>,
-}
-
-impl Headings {
-    /// Room for `n` headings: no allocation until there are more.
-    pub fn with_capacity(n: usize) -> Headings {
-        Headings {
-            sin: Vec::with_capacity(n),
-            cos: Vec::with_capacity(n),
-        }
-    }
-
-    /// Forgets the headings, so that [`Headings::trig`] gives none until
-    /// [`Headings::poses`] computes them again.
-    pub fn clear(&mut self) {
-        self.sin.clear();
-        self.cos.clear();
-    }
-
-    /// The sines and cosines [`Headings::poses`] computed last, if it computed `n` of them
-    /// since the last [`Headings::clear`]; otherwise they are to be computed.
-    pub fn trig(&self, n: usize) -> HeadingTrig<'_> {
-        if self.sin.len() == n && n > 0 {
-            HeadingTrig::Given {
-                sin: &self.sin,
-                cos: &self.cos,
-            }
-        } else {
-            HeadingTrig::Compute
-        }
-    }
-
-    /// The poses (`x`, `y`, `th`) with the sines and cosines of `th`.
-    pub fn poses<'a>(&'a mut self, x: &'a [f64], y: &'a [f64], th: &[f64]) -> Poses<'a> {
-        self.sin.clear();
-        self.cos.clear();
-        for t in th {
-            let (s, c) = t.sin_cos();
-            self.sin.push(s);
-            self.cos.push(c);
-        }
-        Poses {
-            x,
-            y,
-            sin: &self.sin,
-            cos: &self.cos,
-        }
-    }
-}
 
 /// Squared distance standing in for "no occupied cell on this line". Finite so that the
 /// parabola intersections of the 1-D transform never compute ∞ − ∞.
@@ -376,7 +293,7 @@ impl LikelihoodField {
             dist,
             params,
             log_floor: 0.0,
-            avx2: avx2::available() && grid.cells.len() <= i32::MAX as usize,
+            avx2: crate::simd::avx2_available() && grid.cells.len() <= i32::MAX as usize,
         })
     }
 
@@ -489,6 +406,18 @@ impl LikelihoodField {
         Some((dist, gu * self.inv_resolution, gv * self.inv_resolution))
     }
 
+    /// The log-likelihood table as the AVX2 kernel reads it.
+    #[cfg(target_arch = "x86_64")]
+    fn table(&self) -> GridTable<'_> {
+        GridTable {
+            origin: self.origin,
+            inv_resolution: self.inv_resolution,
+            width: self.width,
+            height: self.height,
+            cells: &self.log_p,
+        }
+    }
+
     /// Log-likelihood of a beam endpoint at (x, y), interpolated bilinearly between the four
     /// nearest cell centres. A per-cell constant would make the likelihood a staircase with
     /// plateaus a cell wide, and the particle mean drifts across such a plateau: measured on
@@ -549,7 +478,15 @@ impl LikelihoodField {
         if self.avx2 {
             // SAFETY: `avx2` is set only where the processor has AVX2 and the table's cell
             // indices fit in i32 (see `assemble`), and `poses` holds `n` of each column.
-            done = unsafe { avx2::beam_row::<ADD>(self, (u, v), poses, out) };
+            done = unsafe {
+                avx2::beam_row::<ADD>(
+                    &self.table(),
+                    |x, y| self.log_likelihood(x, y),
+                    (u, v),
+                    poses,
+                    out,
+                )
+            };
         }
         for (i, o) in out.iter_mut().enumerate().skip(done) {
             let (s, c) = (poses.sin[i], poses.cos[i]);
@@ -575,6 +512,7 @@ impl LikelihoodField {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::particles::Headings;
 
     /// amcl's field weights with a tight σ_hit (0.05 m) and an 8 m laser.
     pub(crate) fn tight_params() -> LikelihoodFieldParams {
@@ -623,24 +561,6 @@ pub(crate) mod tests {
             height: h,
             cells,
         }
-    }
-
-    #[test]
-    fn headings_are_given_only_for_the_poses_computed_since_the_last_clear() {
-        let th = [0.3, -2.0, 3.1];
-        let mut h = Headings::default();
-        assert!(matches!(h.trig(0), HeadingTrig::Compute));
-        h.poses(&[0.0; 3], &[0.0; 3], &th);
-        let HeadingTrig::Given { sin, cos } = h.trig(3) else {
-            panic!("computed for 3 poses");
-        };
-        for (k, t) in th.iter().enumerate() {
-            assert_eq!((sin[k], cos[k]), t.sin_cos());
-        }
-        // Another count of particles, or a clear, and the estimate must compute its own.
-        assert!(matches!(h.trig(2), HeadingTrig::Compute));
-        h.clear();
-        assert!(matches!(h.trig(3), HeadingTrig::Compute));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
 use crate::initial_belief::{check_gaussian, gaussian_pose};
 use crate::kld::KldSampling;
-use crate::likelihood_field::{validate_grid, Headings, LikelihoodField, LikelihoodFieldParams};
+use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
 use crate::limits::{
     check_count, check_count_min1, check_grid, check_positive, MAX_BEAMS, MAX_GLOBAL_PARTICLES,
     MCL_MAX_GRID_CELLS,
@@ -15,6 +15,7 @@ use crate::limits::{
 use crate::motion::OdometryMotionModel;
 use crate::observation_fit::FitTracker;
 use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
+use crate::particles::Headings;
 use crate::resampling::ResamplePolicy;
 use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
@@ -57,7 +58,7 @@ pub struct MclParams {
     /// Beams used per scan, evenly spread over the valid ones. Default 60.
     pub max_beams: usize,
     /// Resolution of the likelihood field, metres; the map is resampled to it if it differs.
-    /// Default 0.02 (see NOTES.md: coarser cells bias the estimate along corridors).
+    /// Default 0.02 (see docs/design/0005-likelihood-field.md: coarser cells bias the estimate along corridors).
     pub grid_resolution: f64,
     /// Distance cap of the likelihood field, metres. Default 2.0.
     pub max_dist: f64,
@@ -100,7 +101,7 @@ pub struct MclParams {
     /// matching (`scan_match`), and the first update weighs those. Uniform particles almost
     /// never fall within the degree and decimetre of the true pose that a sharp field
     /// (sigma_hit 0.1 m, 60 beams) rewards, so an aliased place that a particle happens to
-    /// fit wins ([Thrun 2001]; measured on `global_localization`, NOTES.md). The kept poses
+    /// fit wins ([Thrun 2001]; measured on `global_localization`, docs/design/0007). The kept poses
     /// are weighed by the likelihood alone, not divided by how densely the matcher gathers
     /// them: each local optimum stands for a hypothesis. Default 0: uniform particles.
     pub global_samples: usize,
@@ -112,7 +113,7 @@ pub struct MclParams {
     /// [Thrun 2001]. A uniform particle almost never lands in the decimetre and degree a sharp
     /// field rewards, so after a kidnapping recovery waits for luck; the uniform half covers
     /// a scan that matches look-alike places better than the true one (measured on
-    /// `kidnapped`, NOTES.md). Default 0: uniform injection only.
+    /// `kidnapped`, docs/design/0007). Default 0: uniform injection only.
     pub inject_from_scan: usize,
     /// Likelihood field only: beam skipping, as ROS amcl's `do_beamskip` [amcl]. A beam
     /// whose endpoint lies within this distance (metres) of a wall for fewer than
@@ -121,7 +122,7 @@ pub struct MclParams {
     /// under a footprint the map fills, a door jamb's corner), and its z_rand floor against
     /// the few particles that happen to put it on a wall swings the estimate (measured on
     /// `corridor_tracking` seed 2: one beam through a door moved it 5 cm along the corridor,
-    /// NOTES.md). Default 0: every beam is used.
+    /// docs/design/0008). Default 0: every beam is used.
     pub beam_skip_distance: f64,
     /// Fraction of the particles below which a beam is skipped. Default 0.3 (amcl's).
     pub beam_skip_threshold: f64,

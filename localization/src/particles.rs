@@ -256,9 +256,104 @@ pub trait ReadingCounts {
     }
 }
 
+/// Poses as columns, with their headings' sines and cosines: computed once for all the beams
+/// of a scan.
+#[derive(Debug, Clone, Copy)]
+pub struct Poses<'a> {
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub sin: &'a [f64],
+    pub cos: &'a [f64],
+}
+
+impl<'a> Poses<'a> {
+    /// The first `n` poses (all four columns cut to `n`: panics if one is shorter).
+    pub fn first(self, n: usize) -> Poses<'a> {
+        Poses {
+            x: &self.x[..n],
+            y: &self.y[..n],
+            sin: &self.sin[..n],
+            cos: &self.cos[..n],
+        }
+    }
+}
+
+/// The sines and cosines of headings, kept between scans so that filling them allocates
+/// nothing once the columns have grown.
+#[derive(Debug, Clone, Default)]
+pub struct Headings {
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+}
+
+impl Headings {
+    /// Room for `n` headings: no allocation until there are more.
+    pub fn with_capacity(n: usize) -> Headings {
+        Headings {
+            sin: Vec::with_capacity(n),
+            cos: Vec::with_capacity(n),
+        }
+    }
+
+    /// Forgets the headings, so that [`Headings::trig`] gives none until
+    /// [`Headings::poses`] computes them again.
+    pub fn clear(&mut self) {
+        self.sin.clear();
+        self.cos.clear();
+    }
+
+    /// The sines and cosines [`Headings::poses`] computed last, if it computed `n` of them
+    /// since the last [`Headings::clear`]; otherwise they are to be computed.
+    pub fn trig(&self, n: usize) -> HeadingTrig<'_> {
+        if self.sin.len() == n && n > 0 {
+            HeadingTrig::Given {
+                sin: &self.sin,
+                cos: &self.cos,
+            }
+        } else {
+            HeadingTrig::Compute
+        }
+    }
+
+    /// The poses (`x`, `y`, `th`) with the sines and cosines of `th`.
+    pub fn poses<'a>(&'a mut self, x: &'a [f64], y: &'a [f64], th: &[f64]) -> Poses<'a> {
+        self.sin.clear();
+        self.cos.clear();
+        for t in th {
+            let (s, c) = t.sin_cos();
+            self.sin.push(s);
+            self.cos.push(c);
+        }
+        Poses {
+            x,
+            y,
+            sin: &self.sin,
+            cos: &self.cos,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn headings_are_given_only_for_the_poses_computed_since_the_last_clear() {
+        let th = [0.3, -2.0, 3.1];
+        let mut h = Headings::default();
+        assert!(matches!(h.trig(0), HeadingTrig::Compute));
+        h.poses(&[0.0; 3], &[0.0; 3], &th);
+        let HeadingTrig::Given { sin, cos } = h.trig(3) else {
+            panic!("computed for 3 poses");
+        };
+        for (k, t) in th.iter().enumerate() {
+            assert_eq!((sin[k], cos[k]), t.sin_cos());
+        }
+        // Another count of particles, or a clear, and the estimate must compute its own.
+        assert!(matches!(h.trig(2), HeadingTrig::Compute));
+        h.clear();
+        assert!(matches!(h.trig(3), HeadingTrig::Compute));
+    }
 
     /// Log-likelihoods far below what exp can represent still give the right ratios; a set
     /// where every particle is impossible keeps uniform weights.

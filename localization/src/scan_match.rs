@@ -97,8 +97,20 @@ impl CoarseDistance {
             inv_resolution: 1.0 / res,
             width,
             height,
-            avx2: crate::likelihood_field::avx2_available() && dist.len() <= i32::MAX as usize,
+            avx2: crate::simd::avx2_available() && dist.len() <= i32::MAX as usize,
             dist,
+        }
+    }
+
+    /// The distances as the AVX2 kernel reads them.
+    #[cfg(target_arch = "x86_64")]
+    fn table(&self) -> crate::simd::GridTable<'_> {
+        crate::simd::GridTable {
+            origin: self.origin,
+            inv_resolution: self.inv_resolution,
+            width: self.width,
+            height: self.height,
+            cells: &self.dist,
         }
     }
 
@@ -130,8 +142,9 @@ impl CoarseDistance {
         if self.avx2 {
             // SAFETY: `avx2` is set only where the processor has AVX2 and the cell indices
             // fit in i32 (see `new`), and `out` is as long as `poses`.
-            done =
-                unsafe { avx2::truncated_costs(self, bx, by, poses, truncation * truncation, out) };
+            done = unsafe {
+                avx2::truncated_costs(&self.table(), bx, by, poses, truncation * truncation, out)
+            };
         }
         for (o, p) in out.iter_mut().zip(poses).skip(done) {
             *o = self.truncated_cost(bx, by, p, truncation);

@@ -78,7 +78,7 @@ pub struct WifiMclParams {
     /// in. Within (0, 1]; 1 (the default) turns the constraint off. 0.3 on the
     /// campus_error_map sweep (20 drives): the worst per-drive median error 34.6 m → 1.07 m,
     /// the worst error 55.6 m → 8.9 m. Not yet the default: with it, choosers_campus's
-    /// data-driven chooser loses track (see NOTES.md).
+    /// data-driven chooser loses track (see docs/design/0010-wifi-graph.md).
     pub max_untrained: f64,
 }
 

@@ -153,6 +153,35 @@ fn bad(file: &Path, what: impl Into<String>, msg: impl Into<String>) -> Scenario
     ScenarioError::field(file, what, msg)
 }
 
+/// Opens the ROS 2 bag folder `dir` (metadata.yaml and its MCAP file) as a recording (see
+/// [`crate::ros2::read`]): the storage file read as a ROS 2 profile recording, and checked
+/// against what metadata.yaml says of its topics.
+fn open_bag(dir: &Path) -> Result<Recording, ScenarioError> {
+    let info = crate::ros2::read::bag_info(dir)?;
+    let bytes = std::fs::read(&info.storage).map_err(|err| ScenarioError::Io {
+        file: info.storage.clone(),
+        err,
+    })?;
+    let rec = Recording::from_bytes_profile(bytes, &info.storage, true)?;
+    // metadata.yaml and the storage file must tell the same story.
+    let in_file = rec.topics();
+    for t in &info.topics {
+        if let Some((_, schema)) = in_file.iter().find(|(n, _)| *n == t.name) {
+            if *schema != t.msg_type {
+                return Err(bad(
+                    &info.storage,
+                    format!("topic {}", t.name),
+                    format!(
+                        "message type {schema:?} in the storage file, {:?} in metadata.yaml",
+                        t.msg_type
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(rec)
+}
+
 /// A recording read into memory and checked: MCAP framing, sizes and CRCs (see
 /// [`container`](atrium_formats::mcap::container)), schemas of the known topics, channels defined before
 /// their messages, messages in log-time order and none twice, required topics, metadata.
@@ -194,7 +223,7 @@ impl Recording {
         let meta = std::fs::metadata(path).map_err(io)?;
         if meta.is_dir() {
             // A ROS 2 bag folder (metadata.yaml and its MCAP file).
-            return crate::ros2::read::open(path);
+            return open_bag(path);
         }
         if !meta.is_file() {
             let what = if meta.is_dir() {

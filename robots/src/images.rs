@@ -2,7 +2,7 @@
 //! ([000] §III), carried in the reading stream as [`crate::Reading::Intensity`] and
 //! [`crate::Reading::Disparity`] (rendered by `atrium_sim::camera` and `atrium_sim::stereo`).
 
-use crate::readings::Mount3;
+use crate::pose::Mount3;
 use serde::{Deserialize, Serialize};
 
 /// A grey image from a pinhole camera looking along the mount's +x (x forward, y left, z up).

@@ -26,9 +26,9 @@ pub use landmark_detector::{Association, LandmarkDetectorSpec};
 pub use model::{
     Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, Wheel,
 };
-pub use pose::{normalize_angle, Pose2};
+pub use pose::{normalize_angle, Mount3, Pose2};
 pub use readings::{
-    DepthImage, LandmarkDetection, LandmarkDetections, LaserScan, Mount3, Reading, WheelOdometry,
+    DepthImage, LandmarkDetection, LandmarkDetections, LaserScan, Reading, WheelOdometry,
     WifiReading, WifiScan,
 };
 pub use sensors::{LaserSpec, OdometrySpec, RobotSensors};

@@ -2,9 +2,7 @@
 //! passive casters and the poses of every link (sensor mounts) in the base frame.
 
 use crate::diff_drive::DiffDrive;
-use crate::error::RobotError;
 use nalgebra::{Isometry3, Vector3};
-use std::path::Path;
 
 /// A collision primitive, in its own frame (URDF conventions: a cylinder's axis is local z).
 #[derive(Debug, Clone, PartialEq)]
@@ -165,35 +163,6 @@ pub struct RobotModel {
 }
 
 impl RobotModel {
-    /// Loads a plain (non-xacro) URDF file.
-    pub fn from_urdf(path: &Path) -> Result<Self, RobotError> {
-        crate::urdf::load_file(path)
-    }
-
-    /// Parses URDF text; `source` names it in error messages.
-    pub fn from_urdf_str(text: &str, source: &str) -> Result<Self, RobotError> {
-        crate::urdf::load_str(text, source)
-    }
-
-    /// [`RobotModel::from_urdf`], plus why each revolving joint that is not a drive wheel was
-    /// left out of the drive.
-    pub fn inspect_urdf(path: &Path) -> Result<RobotInspection, RobotError> {
-        let (model, excluded_joints) = crate::urdf::load_file_with_report(path)?;
-        Ok(RobotInspection {
-            model,
-            excluded_joints,
-        })
-    }
-
-    /// [`RobotModel::inspect_urdf`] on URDF text; `source` names it in error messages.
-    pub fn inspect_urdf_str(text: &str, source: &str) -> Result<RobotInspection, RobotError> {
-        let (model, excluded_joints) = crate::urdf::load_str_with_report(text, source)?;
-        Ok(RobotInspection {
-            model,
-            excluded_joints,
-        })
-    }
-
     /// The drive's kinematics as the robot's software uses them: the wheel separation of a
     /// differential drive, the effective track of a skid steer.
     pub fn drive(&self) -> DiffDrive {

@@ -76,6 +76,24 @@ impl Pose2 {
     }
 }
 
+/// A sensor's pose in the robot's base frame in 3D: position (m) and URDF roll, pitch, yaw
+/// (rad, R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Mount3 {
+    pub xyz: [f64; 3],
+    pub rpy: [f64; 3],
+}
+
+impl Mount3 {
+    pub fn to_isometry(&self) -> nalgebra::Isometry3<f64> {
+        let [r, p, y] = self.rpy;
+        nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
+            nalgebra::UnitQuaternion::from_euler_angles(r, p, y),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

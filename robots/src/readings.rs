@@ -1,7 +1,7 @@
 //! The stamped readings sensors produce. Localizers consume these, whether they come from
 //! the simulator, a recording or a real robot.
 
-use crate::pose::Pose2;
+use crate::pose::{Mount3, Pose2};
 use serde::{Deserialize, Serialize};
 
 /// One planar laser sweep. Beam `i` points at `angle_min + i * angle_increment` in the laser
@@ -35,24 +35,6 @@ pub struct WheelOdometry {
     pub pose: Pose2,
     pub left_ticks: i64,
     pub right_ticks: i64,
-}
-
-/// A sensor's pose in the robot's base frame in 3D: position (m) and URDF roll, pitch, yaw
-/// (rad, R = Rz(yaw)·Ry(pitch)·Rx(roll)).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Mount3 {
-    pub xyz: [f64; 3],
-    pub rpy: [f64; 3],
-}
-
-impl Mount3 {
-    pub fn to_isometry(&self) -> nalgebra::Isometry3<f64> {
-        let [r, p, y] = self.rpy;
-        nalgebra::Isometry3::from_parts(
-            nalgebra::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
-            nalgebra::UnitQuaternion::from_euler_angles(r, p, y),
-        )
-    }
 }
 
 /// A depth image from a pinhole camera whose optical frame looks along the mount's +x

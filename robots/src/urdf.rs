@@ -12,8 +12,8 @@
 use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
 use crate::error::RobotError;
 use crate::model::{
-    Caster, DriveKind, ExcludedJoint, LinkMount, RobotModel, Shape, ShapeInstance, SkidSteer,
-    TrackSource, Wheel,
+    Caster, DriveKind, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance,
+    SkidSteer, TrackSource, Wheel,
 };
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{HashMap, HashSet};
@@ -1693,6 +1693,37 @@ fn check_reach(nodes: &[Node], geometry: &[LinkGeometry], source: &str) -> Resul
         }
     }
     Ok(())
+}
+
+impl RobotModel {
+    /// Loads a plain (non-xacro) URDF file.
+    pub fn from_urdf(path: &Path) -> Result<Self, RobotError> {
+        load_file(path)
+    }
+
+    /// Parses URDF text; `source` names it in error messages.
+    pub fn from_urdf_str(text: &str, source: &str) -> Result<Self, RobotError> {
+        load_str(text, source)
+    }
+
+    /// [`RobotModel::from_urdf`], plus why each revolving joint that is not a drive wheel was
+    /// left out of the drive.
+    pub fn inspect_urdf(path: &Path) -> Result<RobotInspection, RobotError> {
+        let (model, excluded_joints) = load_file_with_report(path)?;
+        Ok(RobotInspection {
+            model,
+            excluded_joints,
+        })
+    }
+
+    /// [`RobotModel::inspect_urdf`] on URDF text; `source` names it in error messages.
+    pub fn inspect_urdf_str(text: &str, source: &str) -> Result<RobotInspection, RobotError> {
+        let (model, excluded_joints) = load_str_with_report(text, source)?;
+        Ok(RobotInspection {
+            model,
+            excluded_joints,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -49,15 +49,11 @@ pub mod verdict;
 
 pub use atrium_localization::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
 pub use error::ScenarioError;
-pub use registry::{BuildContext, LocalizerFactory, LocalizerRegistry, RegistryError};
+pub use registry::{
+    run_scenario, BuildContext, LocalizerFactory, LocalizerRegistry, RegistryError,
+};
 pub use runner::{run_localizers, RunOptions, RunResult};
 pub use scenario::Scenario;
-
-/// Runs `scenario` with Atrium's built-in localizer kinds (see
-/// [`LocalizerRegistry::with_builtins`]; a user's kinds: [`LocalizerRegistry::run`]).
-pub fn run_scenario(scenario: &Scenario, options: RunOptions) -> Result<RunResult, ScenarioError> {
-    LocalizerRegistry::with_builtins().run(scenario, options)
-}
 
 /// The folder holding the bundled scenarios (`scenarios/` of the source tree).
 pub fn bundled_scenarios_dir() -> std::path::PathBuf {

@@ -369,6 +369,12 @@ impl LocalizerRegistry {
     }
 }
 
+/// Runs `scenario` with Atrium's built-in localizer kinds (see
+/// [`LocalizerRegistry::with_builtins`]; a user's kinds: [`LocalizerRegistry::run`]).
+pub fn run_scenario(scenario: &Scenario, options: RunOptions) -> Result<RunResult, ScenarioError> {
+    LocalizerRegistry::with_builtins().run(scenario, options)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,12 +12,14 @@
 //! sensor applies a gain, Gaussian noise and 8-bit quantisation, clipped to [0, 1].
 
 mod avx;
+mod light_sample;
 
 use crate::frustum::{FrustumCaster, Pinhole};
 use crate::scene::{decode_tag, iso_to_pose, LaserSurface, Scene, StaticKind};
 use atrium_robots::{IntensityImage, Mount3, Pose2};
 use atrium_worlds::lighting::{LightKind, LightingCondition, Surface};
 use atrium_worlds::World;
+use light_sample::LightSample;
 use nalgebra::Isometry3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -121,17 +123,6 @@ impl CameraSpec {
     pub fn fx(&self) -> f64 {
         0.5 * self.width as f64 / (0.5 * self.hfov).tan()
     }
-}
-
-#[derive(Debug, Clone, Copy)]
-struct LightSample {
-    pos: Vector,
-    power: f32,
-    /// Main direction of emission (unit): lamps shine mostly down, windows into the room.
-    dir: Vector,
-    /// Share of the power emitted regardless of direction (lamp housings scatter; a window
-    /// lets light in only from outside).
-    isotropic: f32,
 }
 
 #[derive(Debug, Clone, Copy)]

@@ -56,7 +56,7 @@ fn wheelchair_node_table_over_five_runs() {
     // which dead reckoning (no verification at all) cannot do. What does not hold, and is
     // deliberately not claimed: later nodes (10/30 verified on seeds 1-5). Even a perfect
     // landmark cannot verify them here (`landmark_node_diagnosis -- oracle`: 5/26): Table I's
-    // reset keeps the chair's heading error, which puts it 0.4-1.3 m from nodes 2-6 (NOTES.md,
+    // reset keeps the chair's heading error, which puts it 0.4-1.3 m from nodes 2-6 (docs/design/0013-landmark-node-filter-scan-alignment.md,
     // issue 16).
     let paper = exp
         .paper

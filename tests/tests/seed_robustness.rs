@@ -1,6 +1,6 @@
 //! Seed robustness: a claim that holds on the bundled seed only is luck. The scenarios cheap
 //! enough for CI run on seeds 1–10 and must pass on at least 9 (`atrium check SCENARIO
-//! --seeds 1..10` runs the same check on any scenario; NOTES.md lists every bundled one).
+//! --seeds 1..10` runs the same check on any scenario; BENCHMARKS.md lists every bundled one).
 
 use atrium_experiments::seed_check::{check_seeds, default_min_pass, parse_seeds};
 use atrium_scenarios::{LocalizerRegistry, Scenario};
@@ -63,7 +63,7 @@ fn global_localization() {
 }
 
 /// CGR against MCL at an equal budget of 48 particles: about 1 s a seed since the budget was
-/// measured down from 100 (NOTES.md, issue 19, ninth session).
+/// measured down from 100 (docs/design/0032-particle-budgets.md).
 #[test]
 fn cgr_vs_mcl() {
     holds_on_nine_of_ten_seeds("cgr_vs_mcl");

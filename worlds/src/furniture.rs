@@ -15,15 +15,6 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{wall_corners, wall_signed_distance, P2};
-use crate::world::World;
-
-impl World {
-    /// The first furniture box whose footprint contains `p`. [`World::clearance`] and
-    /// [`World::is_free`] describe the building (what the maps show) and leave furniture out.
-    pub fn furniture_at(&self, p: P2) -> Option<usize> {
-        self.boxes.iter().position(|b| b.signed_distance(p) <= 0.0)
-    }
-}
 
 /// A box standing on the floor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -63,12 +54,12 @@ impl FurnitureBox {
 
     /// Checks the numbers; the error is (key, message).
     pub fn validate(&self, ceiling_height: f64) -> Result<(), (&'static str, String)> {
-        crate::loader::check_coordinates(&self.center).map_err(|msg| ("center", msg))?;
+        crate::limits::check_coordinates(&self.center).map_err(|msg| ("center", msg))?;
         for (k, v) in self.size.iter().enumerate() {
             if !(v.is_finite() && *v > 0.0) {
                 return Err(("size", format!("size[{k}] must be finite and > 0, got {v}")));
             }
-            crate::loader::check_length(*v).map_err(|msg| ("size", format!("size[{k}] {msg}")))?;
+            crate::limits::check_length(*v).map_err(|msg| ("size", format!("size[{k}] {msg}")))?;
         }
         if self.size[2] > ceiling_height {
             return Err((
@@ -112,66 +103,5 @@ mod tests {
         assert_eq!(bad.validate(3.0).unwrap_err().0, "size");
         bad.size[2] = 0.0;
         assert!(bad.validate(3.0).unwrap_err().1.contains("size[2]"));
-    }
-}
-
-#[cfg(test)]
-mod campus_tests {
-    use crate::world::{RegionKind, World};
-
-    /// The bundled campus's furniture stands inside rooms (none in a corridor or the
-    /// atrium); in rooms SW, SE and NW it is clear of every wall and pillar.
-    #[test]
-    fn campus_furniture_stands_clear_inside_the_allowed_rooms() {
-        let w = World::campus().unwrap();
-        assert!(w.boxes.len() >= 15, "{} boxes", w.boxes.len());
-        let mut walls_only = w.clone();
-        walls_only.boxes.clear();
-        for (i, b) in w.boxes.iter().enumerate() {
-            for p in b.corners().into_iter().chain([b.center]) {
-                let r = w
-                    .region_at(p)
-                    .unwrap_or_else(|| panic!("boxes[{i}] outside"));
-                assert_eq!(r.kind, RegionKind::Room, "boxes[{i}] in {}", r.name);
-                // Rooms SW, SE and NW are furnished here (issue 3); others furnish the rest.
-                let ours = ["room_sw", "room_se", "room_nw"]
-                    .iter()
-                    .any(|prefix| r.name.starts_with(prefix));
-                if ours {
-                    assert!(walls_only.clearance(p) > 0.02, "boxes[{i}] touches a wall");
-                }
-            }
-            assert!(w.furniture_at(b.center) == Some(i));
-        }
-        // Furniture is not in the maps.
-        let (m1, m2) = (w.vector_map(true), walls_only.vector_map(true));
-        assert_eq!(m1, m2);
-    }
-
-    #[test]
-    fn bad_boxes_are_named_with_their_line() {
-        let base = "name = \"t\"\nceiling_height = 3.0\n[materials.wood]\nlaser = \"opaque\"\n\
-                    [[walls]]\npoints = [[0.0, 0.0], [5.0, 0.0]]\nthickness = 0.1\nmaterial = \"wood\"\n\
-                    [[boxes]]\ncenter = [1.0, 1.0]\n";
-        let load = |rest: &str| {
-            World::from_toml_str(&format!("{base}{rest}"), std::path::Path::new("w.toml"))
-        };
-        let ok = load("size = [1.0, 1.0, 1.0]\nmaterial = \"wood\"\n").unwrap();
-        assert_eq!(ok.boxes[0].yaw, 0.0);
-        let e = load("size = [1.0, 0.0, 1.0]\nmaterial = \"wood\"\n")
-            .unwrap_err()
-            .to_string();
-        assert_eq!(
-            e,
-            "w.toml: boxes[0].size: size[1] must be finite and > 0, got 0 (entry at line 9)"
-        );
-        let e = load("size = [1.0, 1.0, 1.0]\nmaterial = \"oak\"\n")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("boxes[0].material") && e.contains("oak"), "{e}");
-        let e = load("size = [1.0, 1.0, 1.0]\nmaterial = \"wood\"\ncolour = 1\n")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("boxes[0]") && e.contains("colour"), "{e}");
     }
 }

@@ -100,7 +100,7 @@ impl Light {
         if !finite(&self.from) {
             return Err(("from", format!("must be finite, got {:?}", self.from)));
         }
-        crate::loader::check_coordinates(&self.from).map_err(|msg| ("from", msg))?;
+        crate::limits::check_coordinates(&self.from).map_err(|msg| ("from", msg))?;
         if !(0.0..=ceiling_height).contains(&self.from[2]) {
             return Err((
                 "from",
@@ -121,7 +121,7 @@ impl Light {
                 if !finite(&to) {
                     return Err(("to", format!("must be finite, got {to:?}")));
                 }
-                crate::loader::check_coordinates(&to).map_err(|msg| ("to", msg))?;
+                crate::limits::check_coordinates(&to).map_err(|msg| ("to", msg))?;
                 let len = ((to[0] - self.from[0]).powi(2) + (to[1] - self.from[1]).powi(2)).sqrt();
                 if len < 1e-6 {
                     return Err(("to", "must differ from `from` in x or y".into()));

@@ -31,8 +31,8 @@
 //! Every table denies unknown keys, so a misspelt key is an error naming it. Errors name the
 //! file, the field path (`walls[3].thickness`, indices from 0 in file order) and the line.
 //!
-//! Limits: every coordinate and length within ±[`MAX_COORDINATE_M`] (10 km), every length at
-//! least [`MIN_SIZE_M`] (1 mm), region polygons simple and of at most [`MAX_POLYGON_POINTS`]
+//! Limits ([`crate::limits`]): every coordinate and length within ±[`MAX_COORDINATE_M`](crate::MAX_COORDINATE_M)
+//! (10 km), every length at least [`MIN_SIZE_M`](crate::MIN_SIZE_M) (1 mm), region polygons simple and of at most [`MAX_POLYGON_POINTS`]
 //! corners. Whether a world's occupancy grid fits at a resolution is
 //! [`World::grid_size`](crate::World::grid_size).
 
@@ -44,6 +44,7 @@ use toml::Spanned;
 
 use crate::error::WorldError;
 use crate::geometry::{polygon_area, polygon_self_intersection};
+use crate::limits::{check_coordinates, check_length, MAX_POLYGON_POINTS};
 use crate::wifi::{AccessPoint, WifiEnvironment};
 use crate::world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, World};
 
@@ -51,60 +52,6 @@ use crate::world::{LaserBehaviour, Material, Pillar, Region, RegionKind, Wall, W
 const MIN_LENGTH: f64 = 1e-9;
 /// Smaller than this, a region polygon is treated as having no area (m²).
 const MIN_AREA: f64 = 1e-9;
-/// Largest |coordinate| and length anywhere in a world (m): wall points, pillar, box, light and
-/// access point positions, region corners, thicknesses, radii, sizes, heights. 10 km is larger
-/// than any building, and it is where the simulator's f32 physics still resolves about a
-/// millimetre (at 1e5 m it would be 8 mm, as coarse as the sensors' noise); beyond it numbers
-/// like 1e300 turn into inf in bounds, areas and grids.
-pub const MAX_COORDINATE_M: f64 = 1e4;
-/// Smallest length (m): wall thickness, pillar radius, box size, heights. A wall thinner than
-/// a millimetre is a typo (mm for m) or garbage such as 5e-324, and at [`MAX_COORDINATE_M`]
-/// the simulator's f32 physics resolves about a millimetre.
-pub const MIN_SIZE_M: f64 = 1e-3;
-/// Most corners a region polygon may have. The simplicity check compares every pair of edges
-/// (n²/2): 1,000 corners take about a millisecond, 100,000 would take seconds per region. Real
-/// regions have a few dozen.
-pub const MAX_POLYGON_POINTS: usize = 1_000;
-
-/// Checks a point against [`MAX_COORDINATE_M`]; the error is the message.
-pub(crate) fn check_coordinates(p: &[f64]) -> Result<(), String> {
-    if !p.iter().all(|v| v.is_finite()) {
-        return Err(format!(
-            "coordinates must be finite numbers, got {}",
-            show(p)
-        ));
-    }
-    if p.iter().any(|v| v.abs() > MAX_COORDINATE_M) {
-        return Err(format!(
-            "coordinates must be within ±{MAX_COORDINATE_M} m (MAX_COORDINATE_M), got {}",
-            show(p)
-        ));
-    }
-    Ok(())
-}
-
-/// Checks a length (thickness, radius, size, height) against [`MIN_SIZE_M`] and
-/// [`MAX_COORDINATE_M`].
-pub(crate) fn check_length(v: f64) -> Result<f64, String> {
-    if !v.is_finite() {
-        Err(format!("must be a finite number, got {v}"))
-    } else if v <= 0.0 {
-        Err(format!("must be > 0, got {}", num(v)))
-    } else if v < MIN_SIZE_M {
-        Err(format!(
-            "must be at least {MIN_SIZE_M} m (MIN_SIZE_M), got {}",
-            num(v)
-        ))
-    } else if v > MAX_COORDINATE_M {
-        Err(format!(
-            "must be at most {MAX_COORDINATE_M} m (MAX_COORDINATE_M), got {}",
-            num(v)
-        ))
-    } else {
-        Ok(v)
-    }
-}
-
 /// Longest line of a TOML parse message: the parser quotes the offending source line, which
 /// in a hostile file may be megabytes long.
 const MAX_MESSAGE_LINE: usize = 200;
@@ -118,22 +65,6 @@ fn clip_lines(msg: &str) -> String {
         })
         .collect::<Vec<_>>()
         .join("\n")
-}
-
-/// `[a, b]` with [`num`] formatting (`[inf, 0]`, `[1e300, 2]`).
-fn show(p: &[f64]) -> String {
-    let parts: Vec<String> = p.iter().map(|&v| num(v)).collect();
-    format!("[{}]", parts.join(", "))
-}
-
-/// A number for a message: plain for everyday magnitudes, in exponent form for huge or tiny
-/// ones (`1e300`, not three hundred digits).
-pub(crate) fn num(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-6..1e16).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
 }
 
 #[derive(Deserialize)]
@@ -243,7 +174,7 @@ impl Ctx<'_> {
         }
     }
 
-    /// A length: finite, > 0 and at most [`MAX_COORDINATE_M`].
+    /// A length: finite, > 0 and at most [`MAX_COORDINATE_M`](crate::MAX_COORDINATE_M).
     fn length(&self, field: &str, at: Option<usize>, v: f64) -> Result<f64, WorldError> {
         check_length(v).map_err(|msg| self.err(field, at, msg))
     }
@@ -338,7 +269,15 @@ impl Ctx<'_> {
     }
 }
 
+/// The bundled campus world's TOML text (`worlds/campus.toml`).
+pub const CAMPUS_TOML: &str = include_str!("../campus.toml");
+
 impl World {
+    /// The bundled campus world (see `worlds/campus.toml` for its layout and anchors).
+    pub fn campus() -> Result<World, WorldError> {
+        World::from_toml_str(CAMPUS_TOML, Path::new("worlds/campus.toml"))
+    }
+
     /// Loads and validates a world file.
     pub fn load(path: &Path) -> Result<World, WorldError> {
         let text = std::fs::read_to_string(path).map_err(|err| WorldError::Io {

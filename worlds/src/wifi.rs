@@ -118,7 +118,7 @@ impl AccessPoint {
                 format!("coordinates must be finite numbers, got [{x}, {y}, {z}]"),
             ));
         }
-        crate::loader::check_coordinates(&self.position).map_err(|msg| ("position", msg))?;
+        crate::limits::check_coordinates(&self.position).map_err(|msg| ("position", msg))?;
         if !(0.0..=ceiling).contains(&z) {
             return Err((
                 "position",
@@ -173,81 +173,6 @@ mod tests {
             path_loss_exponent: 2.5,
             channel: 6,
         }
-    }
-
-    const WORLD: &str = r#"name = "w"
-ceiling_height = 3.0
-[materials.concrete]
-laser = "opaque"
-wifi_attenuation_db = 12.0
-[materials.glass]
-laser = "glass"
-reflect_within_deg = 5.0
-[[walls]]
-points = [[0.0, 0.0], [10.0, 0.0]]
-thickness = 0.2
-material = "concrete"
-[wifi]
-shadowing_sigma_db = 4.0
-[[access_points]]
-name = "a1"
-position = [1.0, 2.0, 2.8]
-tx_power_dbm = -40.0
-path_loss_exponent = 2.5
-channel = 6
-"#;
-
-    #[test]
-    fn loader_reads_access_points_attenuation_and_environment() {
-        let path = std::path::Path::new("w.toml");
-        let w = crate::World::from_toml_str(WORLD, path).unwrap();
-        assert_eq!(w.access_points.len(), 1);
-        assert_eq!(w.access_points[0].channel, 6);
-        assert_eq!(w.material("concrete").unwrap().wifi_attenuation_db, 12.0);
-        assert_eq!(
-            w.material("glass").unwrap().wifi_attenuation_db,
-            0.0,
-            "serde default"
-        );
-        assert_eq!(w.wifi.shadowing_sigma_db, 4.0);
-        assert_eq!(w.wifi.shadowing_decorrelation_m, 3.0, "default");
-        w.validate(path).unwrap();
-        let bad = WORLD.replace("position = [1.0, 2.0, 2.8]", "position = [1.0, 2.0, 3.5]");
-        let e = crate::World::from_toml_str(&bad, path)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.starts_with("w.toml: access_points[0].position: height z"),
-            "{e}"
-        );
-        let bad = WORLD.replace("wifi_attenuation_db = 12.0", "wifi_attenuation_db = -3.0");
-        let e = crate::World::from_toml_str(&bad, path)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.starts_with("w.toml: materials.concrete.wifi_attenuation_db: must be"),
-            "{e}"
-        );
-        let bad = format!("{WORLD}[[access_points]]\nname = \"a1\"\nposition = [0.0, 0.0, 1.0]\ntx_power_dbm = -40.0\npath_loss_exponent = 2.0\nchannel = 1\n");
-        let e = crate::World::from_toml_str(&bad, path)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("access_points[1].name: duplicate access point name"),
-            "{e}"
-        );
-        let bad = WORLD.replace("shadowing_sigma_db = 4.0", "shadowing_sigm = 4.0");
-        let e = crate::World::from_toml_str(&bad, path)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("wifi: unknown field `shadowing_sigm`"), "{e}");
-        let campus = crate::World::campus().unwrap();
-        assert_eq!(campus.access_points.len(), 15);
-        // None inside the atrium (x 30–60, y 2.85–40): its interior stays open.
-        assert!(campus.access_points.iter().all(|a| {
-            let [x, y, _] = a.position;
-            !(x > 30.0 && x < 60.0 && y > 2.85 && y < 40.0)
-        }));
     }
 
     #[test]

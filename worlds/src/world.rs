@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{distance, point_in_polygon, wall_corners, wall_signed_distance};
+use crate::geometry::{distance, point_in_polygon, wall_corners, wall_signed_distance, P2};
 use crate::wifi::{AccessPoint, WifiEnvironment};
 
 /// What a laser beam does at a surface of this material.
@@ -89,13 +89,11 @@ pub struct World {
     pub lighting: crate::lighting::Lighting,
 }
 
-/// The bundled campus world's TOML text (`worlds/campus.toml`).
-pub const CAMPUS_TOML: &str = include_str!("../campus.toml");
-
 impl World {
-    /// The bundled campus world (see `worlds/campus.toml` for its layout and anchors).
-    pub fn campus() -> Result<World, crate::WorldError> {
-        World::from_toml_str(CAMPUS_TOML, std::path::Path::new("worlds/campus.toml"))
+    /// The first furniture box whose footprint contains `p`. [`World::clearance`] and
+    /// [`World::is_free`] describe the building (what the maps show) and leave furniture out.
+    pub fn furniture_at(&self, p: P2) -> Option<usize> {
+        self.boxes.iter().position(|b| b.signed_distance(p) <= 0.0)
     }
 
     /// The material called `name`.

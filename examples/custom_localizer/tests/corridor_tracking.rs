@@ -1,4 +1,5 @@
-// README snippet: keep in sync with README.md (checked by `readme_shows_this_test` below).
+// README snippet: keep in sync with README.md and docs/own-localizer.md (checked by
+// `readme_shows_this_test` below).
 use atrium_scenarios::{bundled_scenarios_dir, LocalizerRegistry, RunOptions, Scenario};
 
 #[test]
@@ -32,7 +33,10 @@ fn wall_ekf_tracks_in_corridor_tracking() {
 #[test]
 fn readme_shows_this_test() {
     readme_snippet_is_this_test(include_str!("../README.md"), "README.md");
-    readme_snippet_is_this_test(include_str!("../../../README.md"), "the top README.md");
+    readme_snippet_is_this_test(
+        include_str!("../../../docs/own-localizer.md"),
+        "docs/own-localizer.md",
+    );
 }
 
 fn readme_snippet_is_this_test(readme: &str, which: &str) {

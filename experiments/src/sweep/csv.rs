@@ -366,9 +366,7 @@ fn parse_meta(first: &str) -> Result<(String, String, Option<Layout>), String> {
             "hash" => hash = Some(v.to_string()),
             "cells" => cells = Some(count()?),
             "trials" => trials = Some(count()?),
-            "shard" => {
-                shard = Some(super::run::parse_shard(v).map_err(|e| format!("shard={v}: {e}"))?)
-            }
+            "shard" => shard = Some(parse_shard(v).map_err(|e| format!("shard={v}: {e}"))?),
             _ => {}
         }
     }
@@ -461,6 +459,25 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
     })
 }
 
+/// Parses `I/N` with 0 <= I < N.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("--shard {s:?}: expected I/N, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard {s:?}: I must be a non-negative integer"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard {s:?}: N must be a positive integer"))?;
+    if n == 0 || i >= n {
+        return Err(format!("--shard {s:?}: index {i} out of range 0..{n}"));
+    }
+    Ok((i, n))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -503,6 +520,14 @@ mod tests {
             rows: vec![row],
             dropped_partial: false,
         }
+    }
+
+    #[test]
+    fn shard_parsing() {
+        assert_eq!(parse_shard("1/4"), Ok((1, 4)));
+        assert!(parse_shard("4/4").unwrap_err().contains("out of range"));
+        assert!(parse_shard("0/0").is_err());
+        assert!(parse_shard("x").is_err());
     }
 
     #[test]

@@ -75,7 +75,7 @@ pub fn to_markdown(results: &Results) -> String {
             .axis_paths
             .iter()
             .zip(params.get(&cell).copied().unwrap_or_default())
-            .map(|(k, v)| super::summary::one_line(&format!("{k} = {v}")))
+            .map(|(k, v)| super::markdown::one_line(&format!("{k} = {v}")))
             .collect();
         s.push_str(&format!(
             "\n## End error, cell {cell}: {}\n\n",

@@ -451,7 +451,7 @@ fn crossing(
     s: &FailureSettings,
 ) -> String {
     let level = percent(s.rate_level);
-    let at = |p: &CurvePoint| super::summary::one_line(&format!("{} = {}", c.axis, p.label));
+    let at = |p: &CurvePoint| super::markdown::one_line(&format!("{} = {}", c.axis, p.label));
     let ci = |e: &Estimate| match e.lo.is_finite() {
         true => format!(
             ", {:.0} % CI {}–{}",
@@ -552,11 +552,11 @@ pub fn to_markdown(curves: &Curves, settings: &FailureSettings, pictures: &[Stri
         };
         if h != heading {
             s.push('\n');
-            s.push_str(&super::summary::one_line(&h));
+            s.push_str(&super::markdown::one_line(&h));
             s.push_str("\n\n");
             heading = h;
         }
-        s.push_str(&super::summary::one_line(&format!(
+        s.push_str(&super::markdown::one_line(&format!(
             "- {}: time with error > {thr} m {}; trials lost (final error > {lost} m) {}",
             c.localizer,
             crossing(c, |e| e.time_failed, settings),
@@ -571,7 +571,7 @@ pub fn to_markdown(curves: &Curves, settings: &FailureSettings, pictures: &[Stri
             .map(|(p, why)| format!("{p} ({why})"))
             .collect();
         s.push('\n');
-        s.push_str(&super::summary::one_line(&format!(
+        s.push_str(&super::markdown::one_line(&format!(
             "No failure curves along: {}.",
             list.join(", ")
         )));

@@ -85,7 +85,7 @@ fn layout_of(dir: &Path, r: &Results) -> Result<Layout, ScenarioError> {
     };
     let shard = match doc["shard"].as_str() {
         None => (0, 1),
-        Some(s) => super::run::parse_shard(s).map_err(bad)?,
+        Some(s) => super::csv::parse_shard(s).map_err(bad)?,
     };
     Ok(Layout {
         cells: count("cells")?,

@@ -15,11 +15,13 @@ pub mod format;
 pub mod heatmap;
 pub mod inputs;
 pub mod maps;
+pub mod markdown;
 pub mod merge;
 pub mod origin;
 pub mod run;
 pub mod summary;
 
+pub use csv::parse_shard;
 pub use format::{Axis, Sweep};
 pub use merge::merge;
-pub use run::{parse_shard, run_sweep, SweepOutcome, SweepSettings};
+pub use run::{run_sweep, SweepOutcome, SweepSettings};

@@ -54,25 +54,6 @@ pub struct SweepOutcome {
     pub wall_s: f64,
 }
 
-/// Parses `I/N` with 0 <= I < N.
-pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let (i, n) = s
-        .split_once('/')
-        .ok_or_else(|| format!("--shard {s:?}: expected I/N, e.g. 0/4"))?;
-    let i: usize = i
-        .trim()
-        .parse()
-        .map_err(|_| format!("--shard {s:?}: I must be a non-negative integer"))?;
-    let n: usize = n
-        .trim()
-        .parse()
-        .map_err(|_| format!("--shard {s:?}: N must be a positive integer"))?;
-    if n == 0 || i >= n {
-        return Err(format!("--shard {s:?}: index {i} out of range 0..{n}"));
-    }
-    Ok((i, n))
-}
-
 /// The seed of trial `trial` of cell `cell`: a function of the sweep seed and the trial's
 /// position only, which is what makes results independent of threads and shards.
 pub fn trial_seed(sweep_seed: u64, cell: usize, trial: usize) -> u64 {
@@ -578,14 +559,6 @@ type CellRun = (atrium_scenarios::scenario::Scenario, SharedMaps);
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn shard_parsing() {
-        assert_eq!(parse_shard("1/4"), Ok((1, 4)));
-        assert!(parse_shard("4/4").unwrap_err().contains("out of range"));
-        assert!(parse_shard("0/0").is_err());
-        assert!(parse_shard("x").is_err());
-    }
 
     #[test]
     fn trial_seeds_are_distinct_and_pinned_to_position() {

@@ -36,17 +36,6 @@ pub fn table(results: &Results) -> BTreeMap<usize, BTreeMap<String, CellStats>> 
         .collect()
 }
 
-/// `s` on one line of Markdown: control characters (a newline in an axis value or sweep
-/// name) written as escapes, so a value cannot break the document's structure.
-pub(crate) fn one_line(s: &str) -> String {
-    s.chars()
-        .map(|c| match c.is_control() {
-            true => c.escape_default().to_string(),
-            false => c.to_string(),
-        })
-        .collect()
-}
-
 pub fn to_markdown(results: &Results) -> String {
     let mut params: BTreeMap<usize, &[String]> = BTreeMap::new();
     for r in &results.rows {
@@ -54,19 +43,19 @@ pub fn to_markdown(results: &Results) -> String {
     }
     let mut s = format!(
         "# Sweep {} (hash {})\n\nPer cell: min / median / max over trials of each trial's median position error, m.\n",
-        one_line(&results.name),
+        super::markdown::one_line(&results.name),
         results.hash
     );
     let drives = super::drive::per_cell(results);
     if let Some(w) = super::drive::unlike_drives(&drives) {
-        s.push_str(&format!("\n**Note:** {}\n", one_line(&w)));
+        s.push_str(&format!("\n**Note:** {}\n", super::markdown::one_line(&w)));
     }
     for (cell, locs) in table(results) {
         let p: Vec<String> = results
             .axis_paths
             .iter()
             .zip(params.get(&cell).copied().unwrap_or_default())
-            .map(|(k, v)| one_line(&format!("{k} = {v}")))
+            .map(|(k, v)| super::markdown::one_line(&format!("{k} = {v}")))
             .collect();
         s.push_str(&format!("\n## Cell {cell}: {}\n\n", p.join(", ")));
         if let Some(d) = drives.get(&cell) {

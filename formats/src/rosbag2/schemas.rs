@@ -5,7 +5,7 @@
 //! `rosbags.typesys.get_types_from_msg` and the Foxglove tools parse. Field lists are those of
 //! ROS 2 Humble (comments left out).
 //!
-//! Atrium's own types are in the package `atrium_msgs` (documented in README.md):
+//! Atrium's own types are in the package `atrium_msgs` (documented in docs/datasets.md):
 //! `WifiScan` / `WifiReading`, `LandmarkDetections` / `LandmarkDetection`, and three exact
 //! side channels replay reads so that it scores exactly as the live run: `WheelOdometry`
 //! (the odometry pose with its heading as a number, not a quaternion, and the tick counts),

@@ -1,22 +1,11 @@
 //! The field's lookup for four poses at a time with AVX2: the operations of
-//! [`LikelihoodField::log_likelihood`], lane by lane, in its order and without fused
+//! [`LikelihoodField::log_likelihood`](super::LikelihoodField::log_likelihood), lane by lane, in its order and without fused
 //! multiply-adds, so that every value is the plain loop's bit for bit. Only the work is
 //! shared: four endpoints transformed, tested and interpolated by one instruction each, and
 //! the four corners of each read by one gather.
 
-use super::{LikelihoodField, Poses};
-
-/// Whether this processor runs [`beam_row`].
-pub(super) fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
+use crate::particles::Poses;
+use crate::simd::{within, GridTable};
 
 /// `out[i]` set to (with `ADD`, increased by) the log-likelihood of the beam endpoint
 /// (`u`, `v`) seen from pose i, for the poses in whole groups of four; returns how many it
@@ -24,12 +13,14 @@ pub(super) fn available() -> bool {
 /// through the scalar lookup, lane by lane.
 ///
 /// # Safety
-/// The processor has AVX2, every cell index of `field` fits in i32, and each column of
+/// The processor has AVX2, every cell index of `field` fits in i32 (`scalar` is the
+/// field's scalar lookup, for lanes off the table's interior), and each column of
 /// `poses` holds at least `out.len()` values.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn beam_row<const ADD: bool>(
-    field: &LikelihoodField,
+    field: &GridTable<'_>,
+    scalar: impl Fn(f64, f64) -> f64,
     (u, v): (f64, f64),
     poses: Poses<'_>,
     out: &mut [f64],
@@ -37,7 +28,7 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
     use std::arch::x86_64::*;
     let n = out.len() / 4 * 4;
     let w = field.width;
-    let table = field.log_p.as_ptr();
+    let table = field.cells.as_ptr();
     let (bu, bv) = (_mm256_set1_pd(u), _mm256_set1_pd(v));
     let (ox, oy) = (
         _mm256_set1_pd(field.origin[0]),
@@ -96,7 +87,7 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
             let mut ey4 = [0.0; 4];
             _mm256_storeu_pd(ex4.as_mut_ptr(), ex);
             _mm256_storeu_pd(ey4.as_mut_ptr(), ey);
-            let l4: [f64; 4] = std::array::from_fn(|k| field.log_likelihood(ex4[k], ey4[k]));
+            let l4: [f64; 4] = std::array::from_fn(|k| scalar(ex4[k], ey4[k]));
             _mm256_loadu_pd(l4.as_ptr())
         };
         let o = out.as_mut_ptr().add(i);
@@ -107,29 +98,4 @@ pub(super) unsafe fn beam_row<const ADD: bool>(
         }
     }
     n
-}
-
-/// Lanes with 0 ≤ `u` < `umax` and 0 ≤ `v` < `vmax`, all bits set (the scalar lookups'
-/// bounds test). Ordered comparisons: NaN fails them, as in the scalar test.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-pub(crate) fn within(
-    u: std::arch::x86_64::__m256d,
-    v: std::arch::x86_64::__m256d,
-    umax: std::arch::x86_64::__m256d,
-    vmax: std::arch::x86_64::__m256d,
-) -> std::arch::x86_64::__m256d {
-    use std::arch::x86_64::*;
-    let zero = _mm256_setzero_pd();
-    _mm256_and_pd(
-        _mm256_and_pd(
-            _mm256_cmp_pd::<_CMP_GE_OQ>(u, zero),
-            _mm256_cmp_pd::<_CMP_GE_OQ>(v, zero),
-        ),
-        _mm256_and_pd(
-            _mm256_cmp_pd::<_CMP_LT_OQ>(u, umax),
-            _mm256_cmp_pd::<_CMP_LT_OQ>(v, vmax),
-        ),
-    )
 }

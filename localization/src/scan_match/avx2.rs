@@ -1,10 +1,9 @@
-//! [`CoarseDistance::truncated_cost`] for four poses at a time with AVX2: each lane sums its
+//! [`CoarseDistance::truncated_cost`](super::CoarseDistance::truncated_cost) for four poses at a time with AVX2: each lane sums its
 //! pose's beams in beam order with the scalar code's operations (no fused multiply-adds), so
 //! every cost is the scalar one bit for bit.
 
-use super::CoarseDistance;
 #[cfg(target_arch = "x86_64")]
-use crate::likelihood_field::avx2_within as within;
+use crate::simd::{within, GridTable};
 use atrium_robots::Pose2;
 
 /// `out[i]` = the truncated cost of the endpoints from `poses[i]`, for the poses in whole
@@ -16,7 +15,7 @@ use atrium_robots::Pose2;
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn truncated_costs(
-    coarse: &CoarseDistance,
+    coarse: &GridTable<'_>,
     bx: &[f64],
     by: &[f64],
     poses: &[Pose2],
@@ -26,7 +25,7 @@ pub(super) unsafe fn truncated_costs(
     use std::arch::x86_64::*;
     let n = out.len() / 4 * 4;
     let by = &by[..bx.len()];
-    let table = coarse.dist.as_ptr();
+    let table = coarse.cells.as_ptr();
     let (ox, oy) = (
         _mm256_set1_pd(coarse.origin[0]),
         _mm256_set1_pd(coarse.origin[1]),

@@ -11,7 +11,6 @@
 
 use super::record::ros_topics;
 use crate::record::events_from_json;
-use crate::replay::Recording;
 use crate::topics;
 use atrium_formats::cdr::CdrReader;
 use atrium_formats::mcap::foxglove as codec;
@@ -208,33 +207,6 @@ pub fn check_channel(topic: &str, schema: &str, encoding: &str) -> Result<(), St
         return Err(format!("message encoding {encoding:?}, expected \"cdr\""));
     }
     check_type(topic, schema)
-}
-
-/// Opens the bag folder `dir` as a recording (see the module docs).
-pub fn open(dir: &Path) -> Result<Recording, ScenarioError> {
-    let info = bag_info(dir)?;
-    let bytes = std::fs::read(&info.storage).map_err(|err| ScenarioError::Io {
-        file: info.storage.clone(),
-        err,
-    })?;
-    let rec = Recording::from_bytes_profile(bytes, &info.storage, true)?;
-    // metadata.yaml and the storage file must tell the same story.
-    let in_file = rec.topics();
-    for t in &info.topics {
-        if let Some((_, schema)) = in_file.iter().find(|(n, _)| *n == t.name) {
-            if *schema != t.msg_type {
-                return Err(bad(
-                    &info.storage,
-                    format!("topic {}", t.name),
-                    format!(
-                        "message type {schema:?} in the storage file, {:?} in metadata.yaml",
-                        t.msg_type
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(rec)
 }
 
 /// The storage (MCAP) file of the bag folder `dir`, for readers of single topics (`score`'s

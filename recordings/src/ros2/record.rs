@@ -795,7 +795,7 @@ impl Ros2Recorder {
                 self.camera_frames(ns, &i.sensor, Some(&i.mount))?;
                 let frame = optical(&i.sensor);
                 let topic = format!("{}{}", topics::IMAGE_PREFIX, i.sensor);
-                // A panorama has no pinhole model; its columns are azimuths (README).
+                // A panorama has no pinhole model; its columns are azimuths (docs/datasets.md).
                 let model = if images::is_panorama(i) {
                     "atrium_cylindrical"
                 } else {

@@ -401,7 +401,7 @@ pub fn build(
     params.disparity_sensor = Some(sensor.clone());
     params
         .validate()
-        .map_err(|m| crate::builtins::param_error(file, &field, &params, &m))?;
+        .map_err(|m| crate::builtins::param_errors::param_error(file, &field, &params, &m))?;
 
     let inputs = ModelInputs {
         source,

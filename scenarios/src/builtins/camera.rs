@@ -201,9 +201,9 @@ pub fn build_ceiling_mcl(
     let training_seed = t.int("training_seed", 1)? as u64;
     let mut params: CeilingMclParams = t.params()?;
     params.sensor = sensor.clone();
-    params
-        .validate()
-        .map_err(|m| crate::builtins::param_error(&scenario.file, &t.field, &params, &m))?;
+    params.validate().map_err(|m| {
+        crate::builtins::param_errors::param_error(&scenario.file, &t.field, &params, &m)
+    })?;
     // Without lights of the training kind the ceiling is dark everywhere: no map.
     let kind = lighting.lights();
     if !scenario
@@ -350,9 +350,9 @@ pub fn build_omni(
     }
     let mut params: OmniMclParams = t.params()?;
     params.sensor = sensor.clone();
-    params
-        .validate()
-        .map_err(|m| crate::builtins::param_error(&scenario.file, &t.field, &params, &m))?;
+    params.validate().map_err(|m| {
+        crate::builtins::param_errors::param_error(&scenario.file, &t.field, &params, &m)
+    })?;
     let inputs = OmniInputs {
         camera,
         grid,

@@ -2,7 +2,7 @@
 //! `atrium_localization::cgr`) from a scenario's `[[localizers]]` table. Parameters are the
 //! fields of `CgrParams`; FSPF's are an inline table, e.g. `fspf = { eta = 15 }`.
 
-use crate::builtins::{localization_error, param_error};
+use crate::builtins::param_errors::{localization_error, param_error};
 use crate::error::ScenarioError;
 use crate::maps::SharedMaps;
 use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};

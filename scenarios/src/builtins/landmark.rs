@@ -138,7 +138,7 @@ pub fn train_landmark_filter(
             })?;
     params
         .validate()
-        .map_err(|msg| crate::builtins::param_error(file, &field, &params, &msg))?;
+        .map_err(|msg| crate::builtins::param_errors::param_error(file, &field, &params, &msg))?;
     let route = scenario.node_route.as_ref().ok_or_else(|| {
         ScenarioError::field(
             file,

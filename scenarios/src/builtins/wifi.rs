@@ -16,7 +16,7 @@
 //! Optional `[localizers.learn]` sets [`WifiGraphParams`]; every other key is a
 //! [`WifiMclParams`] field. Paths are relative to the scenario file.
 
-use crate::builtins::{localization_error, param_error};
+use crate::builtins::param_errors::{localization_error, param_error};
 use crate::error::ScenarioError;
 use crate::scenario::{InitialBelief, LocalizerSpec, Scenario};
 use crate::seeds::derive_seed;
@@ -119,7 +119,12 @@ fn graph_from_training(
     params
         .check_graph_size(lo, hi, survey_scenario.world.access_points.len())
         .map_err(|msg| {
-            crate::builtins::param_error(file, &format!("{field}.learn"), params, &msg)
+            crate::builtins::param_errors::param_error(
+                file,
+                &format!("{field}.learn"),
+                params,
+                &msg,
+            )
         })?;
     let key = format!(
         "{}\n{}\n{:?}\n{:?}\n{:?}",

@@ -219,7 +219,7 @@ impl ColourScale {
             }
             if out.len() < 3 {
                 // Less than a decade: round linear steps read better than the ends.
-                let linear = super::nice_ticks(self.lo, self.hi, 4);
+                let linear = super::ticks::nice_ticks(self.lo, self.hi, 4);
                 out = if linear.len() >= 2 {
                     linear
                 } else {
@@ -228,7 +228,7 @@ impl ColourScale {
             }
             out
         } else {
-            super::nice_ticks(self.lo, self.hi, 6)
+            super::ticks::nice_ticks(self.lo, self.hi, 6)
         }
     }
 }

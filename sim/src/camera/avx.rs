@@ -5,6 +5,7 @@
 //! scalar loop's bit for bit. Only the work is shared: a lamp's eight samples cost one
 //! division per component instead of eight.
 
+use super::light_sample::LightSample;
 use rapier3d::prelude::Vector;
 
 /// The light samples in columns, padded to whole groups of eight (the padding is never
@@ -23,9 +24,9 @@ pub(super) struct SampleColumns {
 }
 
 impl SampleColumns {
-    pub(super) fn new(samples: &[super::LightSample]) -> SampleColumns {
+    pub(super) fn new(samples: &[LightSample]) -> SampleColumns {
         let padded = samples.len().div_ceil(8) * 8;
-        let column = |f: &dyn Fn(&super::LightSample) -> f32, pad: f32| {
+        let column = |f: &dyn Fn(&LightSample) -> f32, pad: f32| {
             let mut c: Vec<f32> = samples.iter().map(f).collect();
             c.resize(padded, pad);
             c

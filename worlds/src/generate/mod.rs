@@ -19,6 +19,7 @@
 //! Parameter errors name the parameter as the field (`atrium_width: ...`), with the line of
 //! the generator file it came from, or `(from --set)` when it was overridden.
 
+mod kind;
 pub mod office_atrium;
 mod rng;
 
@@ -29,36 +30,8 @@ use std::sync::Arc;
 use crate::error::WorldError;
 use crate::world::World;
 
+pub use kind::{ParamError, WorldGenerator};
 pub use office_atrium::{generate, GeneratorParams, OfficeAtrium};
-
-/// A parameter that cannot make a world: the parameter's name and what is wrong.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParamError {
-    pub param: String,
-    pub msg: String,
-}
-
-impl ParamError {
-    pub fn new(param: impl Into<String>, msg: impl Into<String>) -> Self {
-        Self {
-            param: param.into(),
-            msg: msg.into(),
-        }
-    }
-}
-
-/// A kind of world generator. Implement it and [`GeneratorRegistry::register`] it to make
-/// a new kind usable from generator files, scenarios and the CLI.
-pub trait WorldGenerator: Send + Sync {
-    /// Every parameter this kind takes, with its default value. Keys not listed here are
-    /// refused by name before [`WorldGenerator::generate_toml`] is called.
-    fn defaults(&self) -> toml::Table;
-
-    /// The explicit world TOML text for `params` (the generator file's keys other than
-    /// `generator`, only known ones, missing ones left to their defaults). Deterministic:
-    /// the same parameters give the same text.
-    fn generate_toml(&self, params: &toml::Table) -> Result<String, ParamError>;
-}
 
 /// Generator kinds by name.
 #[derive(Clone, Default)]

@@ -53,8 +53,8 @@
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 
+use super::kind::{ParamError, WorldGenerator};
 use super::rng::Stream;
-use super::{ParamError, WorldGenerator};
 
 /// The parameters of the `office_atrium` generator (see the module documentation).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -101,7 +101,7 @@ impl Default for GeneratorParams {
     }
 }
 
-/// The `office_atrium` kind for a [`super::GeneratorRegistry`].
+/// The `office_atrium` kind for a [`GeneratorRegistry`](crate::GeneratorRegistry).
 pub struct OfficeAtrium;
 
 impl WorldGenerator for OfficeAtrium {

@@ -1,12 +1,17 @@
 #!/usr/bin/env python3
-"""Regenerates NOTES.md's "Current figures" section from the code as it is.
+"""Regenerates BENCHMARKS.md's "Simulated scenarios (generated)" sections from the code as it is.
 
-Every figure comes from an `atrium` command printed next to it, so a stale figure is one
-command away from being caught:
+Every figure comes from an `atrium` command printed next to it, with the machine it ran on, so a
+stale figure is one command away from being caught:
 
-  python3 scripts/notes_figures.py                 # everything (about 40 min on 2 cores)
-  python3 scripts/notes_figures.py --only speed    # real-time factors, one run at a time
-  python3 scripts/notes_figures.py --only seeds --scenario wifi_atrium
+  python3 scripts/benchmark_figures.py --write               # everything (about 40 min on 2 cores)
+  python3 scripts/benchmark_figures.py --only speed --write  # real-time factors, one run at a time
+  python3 scripts/benchmark_figures.py --only seeds --scenario wifi_atrium   # print, do not write
+
+With `--write` each generated part replaces the text between its markers in BENCHMARKS.md
+(`<!-- figures:speed:begin -->` ... `<!-- figures:speed:end -->`, likewise `experiments` and
+`seeds`); without it the sections are printed. `--scenario` limits the seed checks and is
+never written (a partial table would replace the whole one).
 
 Real-time factors run one scenario at a time (one core busy, `timing` of `atrium run --json`,
 the drive only). Seed spreads come from `atrium check SCENARIO --seeds 1..10 --json`, which
@@ -67,12 +72,34 @@ def fmt(v):
     return f"{v:.3f}".rstrip("0").rstrip(".")
 
 
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def write_section(name, lines):
+    """Replaces BENCHMARKS.md's text between the `name` markers with `lines`."""
+    path = os.path.join(ROOT, "BENCHMARKS.md")
+    text = open(path, encoding="utf-8").read()
+    begin, end = f"<!-- figures:{name}:begin -->", f"<!-- figures:{name}:end -->"
+    a, b = text.index(begin) + len(begin), text.index(end)
+    body = "\n".join(lines).strip("\n")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text[:a] + "\n" + body + "\n" + text[b:])
+
+
 def speed_section():
     lines = [
         "### Real-time factors (one run each, the scenario's own seed, drive only)",
         "",
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, "
-        f"{platform.processor() or platform.platform()}; measured {time.strftime('%Y-%m-%d')}.",
+        f"Machine: {cpu_model()}, {platform.machine()}, {os.cpu_count()} cores, "
+        f"{platform.platform()}; measured {time.strftime('%Y-%m-%d')}.",
         "",
         "| scenario | real time × | simulator s | localizers s (heaviest) | command |",
         "|---|---|---|---|---|",
@@ -182,15 +209,22 @@ def main():
     ap.add_argument("--only", choices=["speed", "seeds", "experiments"])
     ap.add_argument("--seeds", default="1..10")
     ap.add_argument("--scenario", action="append", help="limit the seed checks to these")
+    ap.add_argument("--write", action="store_true", help="rewrite BENCHMARKS.md's sections")
     a = ap.parse_args()
-    lines = []
+    if a.write and a.scenario:
+        ap.error("--scenario gives a partial seed table: print it, do not --write it")
+    parts = []
     if a.only in (None, "speed"):
-        lines += speed_section() + [""]
+        parts.append(("speed", speed_section()))
     if a.only in (None, "experiments"):
-        lines += experiments_section()
+        parts.append(("experiments", experiments_section()))
     if a.only in (None, "seeds"):
-        lines += seeds_section(a.scenario or scenarios_with_expectations(), a.seeds)
-    print("\n".join(lines))
+        parts.append(("seeds", seeds_section(a.scenario or scenarios_with_expectations(), a.seeds)))
+    for name, lines in parts:
+        if a.write:
+            write_section(name, lines)
+        else:
+            print("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,7 @@
+use crate::b::Beta;
+
+pub struct Alpha;
+
+pub fn alpha_of(_: Beta) -> Alpha {
+    Alpha
+}

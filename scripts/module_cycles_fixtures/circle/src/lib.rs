@@ -1,0 +1,3 @@
+//! Two sibling files that import each other: a circle.
+pub mod a;
+pub mod b;

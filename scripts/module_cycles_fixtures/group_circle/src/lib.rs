@@ -1,0 +1,3 @@
+//! A circle made through a `use` group and a file's inline tests.
+pub mod maths;
+pub mod model;

@@ -1,0 +1,8 @@
+use super::World;
+use crate::Limits;
+
+pub struct Wall;
+
+pub fn fits(_: &World, _: &Limits) -> bool {
+    true
+}

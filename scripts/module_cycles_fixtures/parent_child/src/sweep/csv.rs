@@ -1,0 +1,3 @@
+pub fn line(_: &crate::sweep::Row) -> String {
+    String::from("row\n")
+}
