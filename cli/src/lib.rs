@@ -390,10 +390,11 @@ fn run(
         progress: Some(&mut progress),
         observer: None,
     };
-    let result = registry.run(&scenario, options)?;
+    let result = registry.run(&scenario, options);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let result = result.map_err(|e| keep_failed_run(e, out.as_deref(), json))?;
     if let Some(dir) = &out {
         let written =
             output::write_run(dir, &scenario.world, &result).map_err(anyhow::Error::msg)?;
@@ -407,6 +408,33 @@ fn run(
         print!("{}", report::to_text(&result));
     }
     Ok(result.passed())
+}
+
+/// A run that failed keeps what is known: the localizers' logs and the error under `--out`
+/// (the failed process localizer's stderr is what explains it), and a `--json` document.
+fn keep_failed_run(
+    e: atrium_scenarios::ScenarioError,
+    out: Option<&std::path::Path>,
+    json: bool,
+) -> anyhow::Error {
+    // Bad input found before the run (a bad table, a missing program) leaves no trace.
+    if !matches!(e, atrium_scenarios::ScenarioError::Localizer { .. }) {
+        return e.into();
+    }
+    if let Some(dir) = out {
+        match output::write_failed_run(dir, &e) {
+            Ok(written) => {
+                for p in written {
+                    eprintln!("kept {}", p.display());
+                }
+            }
+            Err(w) => eprintln!("warning: could not keep the failed run's logs: {w}"),
+        }
+    }
+    if json {
+        let _ = print_json(&output::failed_run_json(&e));
+    }
+    e.into()
 }
 
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
@@ -635,6 +663,8 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
 /// `--resume`. Only SIGKILL still leaves a `.partial` (a later `record` replaces it).
 fn remove_unfinished_on_interrupt() {
     let installed = ctrlc::set_handler(|| {
+        // Process localizers first (each in its own process group), so none writes on.
+        atrium_scenarios::output::end_child_groups();
         for file in atrium_scenarios::output::remove_unfinished() {
             eprintln!("interrupted: removed unfinished {}", file.display());
         }
