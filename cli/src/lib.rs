@@ -51,10 +51,10 @@ enum Command {
     Check {
         scenario: PathBuf,
         /// Seeds: `1..10` (both included), `3..=5`, `7` or `1,4,9`.
-        #[arg(long, default_value = "1..10")]
+        #[arg(long, default_value = "1..10", allow_hyphen_values = true)]
         seeds: String,
         /// Seeds that must pass; default: 90 % of them, rounded up (9 of 10).
-        #[arg(long)]
+        #[arg(long, allow_hyphen_values = true)]
         min_pass: Option<usize>,
         #[arg(long)]
         json: bool,
