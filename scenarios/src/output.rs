@@ -200,11 +200,16 @@ pub fn export_map(
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .ok_or_else(|| format!("{}: not a file path", output.display()))?;
-            write_atomic(&pgm, &grid.to_pgm()).map_err(fail)?;
+            // Both checked before either is written (a folder named m.pgm was reported as a
+            // failure to write m.yaml, after nothing or half was written).
+            check_writable_file(output, "-o")?;
+            check_writable_file(&pgm, "-o (the image beside the YAML)")?;
+            write_atomic(&pgm, &grid.to_pgm()).map_err(|e| format!("{}: {e}", pgm.display()))?;
             write_atomic(output, grid.ros_yaml(&image).as_bytes()).map_err(fail)?;
             Ok(vec![output.to_path_buf(), pgm])
         }
         "vector" => {
+            check_writable_file(output, "-o")?;
             write_atomic(output, world.vector_map(include_glass).to_text().as_bytes())
                 .map_err(fail)?;
             Ok(vec![output.to_path_buf()])
