@@ -598,6 +598,52 @@ mod tests {
         );
     }
 
+    /// Issue 45: an all-zero quaternion was read as heading 0, a negative variance made
+    /// NEES silently null, and positions near 1e308 overflowed the metrics.
+    #[test]
+    fn zero_quaternions_negative_variances_and_huge_positions_are_refused() {
+        use foxglove::Encode;
+        let mut msg = codec::pose_in_frame(100_000_000, "map", &Pose2::new(1.0, 2.0, 0.0));
+        if let Some(q) = msg.pose.as_mut().and_then(|p| p.orientation.as_mut()) {
+            (q.x, q.y, q.z, q.w) = (0.0, 0.0, 0.0, 0.0);
+        }
+        let mut b = Vec::new();
+        msg.encode(&mut b).unwrap();
+        let p = write_mcap(
+            "zero_q.mcap",
+            &[("/pose", POSE_IN_FRAME, "protobuf", vec![(1, b)])],
+        );
+        let e = Estimates::read(&p, None).unwrap_err().to_string();
+        assert!(
+            e.contains("topic /pose, message 1") && e.contains("not a rotation"),
+            "{e}"
+        );
+
+        let schema = "geometry_msgs/msg/PoseWithCovarianceStamped";
+        let mut cov = [0.0; 36];
+        cov[0] = 0.25;
+        cov[7] = -0.25;
+        cov[35] = 0.01;
+        let b = cdr::tests::encode(
+            schema,
+            0,
+            100_000_000,
+            "map",
+            Pose2::new(1.0, 2.0, 0.0),
+            &cov,
+            false,
+        );
+        let p = write_mcap(
+            "neg_cov.mcap",
+            &[("/amcl_pose", schema, "cdr", vec![(1, b)])],
+        );
+        let e = Estimates::read(&p, None).unwrap_err().to_string();
+        assert!(e.contains("variance of y is negative"), "{e}");
+
+        let e = err("huge.tum", "0.1 1e308 0 0 0 0 0 1\n");
+        assert!(e.contains("line 1") && e.contains("farther than"), "{e}");
+    }
+
     #[test]
     fn lookup_snaps_interpolates_and_holds() {
         let e = Estimates {
