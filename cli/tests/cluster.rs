@@ -5,6 +5,7 @@
 
 #![cfg(unix)]
 
+#[allow(dead_code)] // this test uses only `tmpdir`
 mod common;
 
 use common::tmpdir;
