@@ -663,12 +663,14 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
 /// `--resume`. Only SIGKILL still leaves a `.partial` (a later `record` replaces it).
 fn remove_unfinished_on_interrupt() {
     let installed = ctrlc::set_handler(|| {
-        // Process localizers first (each in its own process group), so none writes on.
-        atrium_scenarios::output::end_child_groups();
         for file in atrium_scenarios::output::remove_unfinished() {
             eprintln!("interrupted: removed unfinished {}", file.display());
         }
         eprintln!("interrupted");
+        // Process localizers (each in its own process group, so the terminal's Ctrl-C did
+        // not reach them) last, right before the exit: a run whose localizer dies would
+        // otherwise report that as its error first.
+        atrium_scenarios::output::end_child_groups();
         std::process::exit(130);
     });
     if let Err(e) = installed {
