@@ -86,7 +86,9 @@ pub fn record_command(
     Ok(rec.run.passed())
 }
 
-/// Parses `NAME=KIND` (or just `KIND`, named after its kind).
+/// Parses `NAME=KIND` (or just `KIND`, named after its kind). The name names output files
+/// (`<name>.tum`), so it is held to the rule of scenario files
+/// (`scenario::check_localizer_name`): `../../x` would write outside `--out`.
 pub fn parse_localizer(s: &str) -> Result<(String, String), String> {
     let (name, kind) = match s.split_once('=') {
         Some((n, k)) => (n.trim(), k.trim()),
@@ -95,7 +97,22 @@ pub fn parse_localizer(s: &str) -> Result<(String, String), String> {
     if name.is_empty() || kind.is_empty() {
         return Err(format!("--localizer {s:?}: expected NAME=KIND or KIND"));
     }
+    atrium_scenarios::scenario::check_localizer_name(name)
+        .map_err(|e| format!("--localizer {s:?}: {e}"))?;
     Ok((name.to_string(), kind.to_string()))
+}
+
+/// Two `--localizer` options with one name would write one `<name>.tum` over the other.
+fn refuse_duplicate_localizers(localizers: &[(String, String)]) -> anyhow::Result<()> {
+    for (i, (name, _)) in localizers.iter().enumerate() {
+        if localizers[..i].iter().any(|(n, _)| n == name) {
+            anyhow::bail!(
+                "--localizer: the name {name:?} is given twice; name each localizer once \
+                 (NAME=KIND), since the name names its output files"
+            );
+        }
+    }
+    Ok(())
 }
 
 /// `atrium replay FILE.mcap|BAG_DIR [--scenario S] [--localizer NAME=KIND]... [--json] [--out DIR]`.
@@ -108,6 +125,7 @@ pub fn replay_command(
     out: Option<PathBuf>,
     rep: &mut crate::report_cli::Report,
 ) -> anyhow::Result<bool> {
+    refuse_duplicate_localizers(&localizers)?;
     // Before the replay, which may take long: a bad --out must not cost the whole run.
     if let Some(dir) = &out {
         output::check_writable_dir(dir, "--out").map_err(anyhow::Error::msg)?;
@@ -126,10 +144,11 @@ pub fn replay_command(
             progress: Some(&mut progress),
             registry: Some(registry),
         },
-    )?;
+    );
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let r = r.map_err(|e| crate::keep_failed_run(e, out.as_deref(), json))?;
     if let Some(dir) = &out {
         let written =
             output::write_run(dir, &r.scenario.world, &r.run).map_err(anyhow::Error::msg)?;

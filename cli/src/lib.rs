@@ -52,10 +52,10 @@ enum Command {
     Check {
         scenario: PathBuf,
         /// Seeds: `1..10` (both included), `3..=5`, `7` or `1,4,9`.
-        #[arg(long, default_value = "1..10")]
+        #[arg(long, default_value = "1..10", allow_hyphen_values = true)]
         seeds: String,
         /// Seeds that must pass; default: 90 % of them, rounded up (9 of 10).
-        #[arg(long)]
+        #[arg(long, allow_hyphen_values = true)]
         min_pass: Option<usize>,
         #[arg(long)]
         json: bool,
@@ -503,10 +503,11 @@ fn run(
         progress: Some(&mut progress),
         observer: None,
     };
-    let result = registry.run(&scenario, options)?;
+    let result = registry.run(&scenario, options);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let result = result.map_err(|e| keep_failed_run(e, out.as_deref(), json))?;
     if let Some(dir) = &out {
         let written =
             output::write_run(dir, &scenario.world, &result).map_err(anyhow::Error::msg)?;
@@ -685,6 +686,33 @@ fn check_report(
         );
     }
     Ok(())
+}
+
+/// A run that failed keeps what is known: the localizers' logs and the error under `--out`
+/// (the failed process localizer's stderr is what explains it), and a `--json` document.
+fn keep_failed_run(
+    e: atrium_scenarios::ScenarioError,
+    out: Option<&std::path::Path>,
+    json: bool,
+) -> anyhow::Error {
+    // Bad input found before the run (a bad table, a missing program) leaves no trace.
+    if !matches!(e, atrium_scenarios::ScenarioError::Localizer { .. }) {
+        return e.into();
+    }
+    if let Some(dir) = out {
+        match output::write_failed_run(dir, &e) {
+            Ok(written) => {
+                for p in written {
+                    eprintln!("kept {}", p.display());
+                }
+            }
+            Err(w) => eprintln!("warning: could not keep the failed run's logs: {w}"),
+        }
+    }
+    if json {
+        let _ = print_json(&output::failed_run_json(&e));
+    }
+    e.into()
 }
 
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
@@ -927,6 +955,10 @@ fn remove_unfinished_on_interrupt() {
             eprintln!("interrupted: removed unfinished {}", file.display());
         }
         eprintln!("interrupted");
+        // Process localizers (each in its own process group, so the terminal's Ctrl-C did
+        // not reach them) last, right before the exit: a run whose localizer dies would
+        // otherwise report that as its error first.
+        atrium_scenarios::output::end_child_groups();
         std::process::exit(130);
     });
     if let Err(e) = installed {

@@ -76,3 +76,28 @@ fn hostile_inputs_exit_2_with_a_clear_message_and_write_nothing() {
     assert!(!work.join("escaped.tum").exists() && !dir.join("escaped.tum").exists());
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Issue 45: `export map -o m.yaml` where `m.pgm` is a folder names `m.pgm`, and writes
+/// nothing (not the YAML without its image).
+#[test]
+fn export_map_names_an_image_path_that_is_a_folder() {
+    let work = tmpdir("export-pgm-dir");
+    std::fs::create_dir_all(work.join("m.pgm")).unwrap();
+    let world = Path::new(env!("CARGO_MANIFEST_DIR")).join("../worlds/lab.toml");
+    let yaml = work.join("m.yaml");
+    let o = atrium(&[
+        "export",
+        "map",
+        world.to_str().unwrap(),
+        "--format",
+        "ros",
+        "-o",
+        yaml.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("m.pgm is a folder"), "{err}");
+    assert!(!yaml.exists(), "the YAML was written without its image");
+    assert_eq!(std::fs::read_dir(&work).unwrap().count(), 1);
+    assert_eq!(std::fs::read_dir(work.join("m.pgm")).unwrap().count(), 0);
+}

@@ -11,17 +11,38 @@ fn repo() -> PathBuf {
 }
 
 fn interrupt_record(signal: &str, tag: &str) {
+    interrupt_record_as(signal, tag, "foxglove")
+}
+
+/// `profile` `ros2` writes a bag folder, `<out>.partial/` until complete: the interrupt must
+/// remove the folder, not just the MCAP file in it (issue 45 found it left empty).
+fn interrupt_record_as(signal: &str, tag: &str, profile: &str) {
     let dir = std::env::temp_dir().join(format!("atrium-interrupt-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join("run.mcap");
-    let partial = dir.join("run.mcap.partial");
+    let ros2 = profile == "ros2";
+    let out = dir.join(if ros2 { "run" } else { "run.mcap" });
+    let partial = dir.join(if ros2 {
+        "run.partial"
+    } else {
+        "run.mcap.partial"
+    });
+    // What shows that recording has begun: the partial file with bytes in it, or the bag's
+    // partial folder with its MCAP file.
+    let begun = || {
+        if ros2 {
+            partial.join("run_0.mcap").exists()
+        } else {
+            std::fs::metadata(&partial).is_ok_and(|m| m.len() > 0)
+        }
+    };
     // The tour is long (minutes of simulated time): it is still recording when signalled.
     let mut child = Command::new(env!("CARGO_BIN_EXE_atrium"))
         .arg("record")
         .arg(repo().join("scenarios/tour.toml"))
         .arg("-o")
         .arg(&out)
+        .args(["--profile", profile])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -29,7 +50,7 @@ fn interrupt_record(signal: &str, tag: &str) {
     // Waits until the recording has begun writing (a condition, not a fixed delay); the
     // deadline only stops a broken build from hanging the suite.
     let deadline = Instant::now() + Duration::from_secs(120);
-    while std::fs::metadata(&partial).map_or(true, |m| m.len() == 0) {
+    while !begun() {
         assert!(
             child.try_wait().unwrap().is_none(),
             "record ended before it was interrupted"
@@ -68,4 +89,14 @@ fn sigint_removes_the_partial_recording() {
 #[test]
 fn sigterm_removes_the_partial_recording() {
     interrupt_record("-TERM", "term");
+}
+
+#[test]
+fn sigint_removes_the_partial_bag_folder() {
+    interrupt_record_as("-INT", "ros2-int", "ros2");
+}
+
+#[test]
+fn sigterm_removes_the_partial_bag_folder() {
+    interrupt_record_as("-TERM", "ros2-term", "ros2");
 }

@@ -37,15 +37,38 @@ fn with_param(tag: &str, param: &str) -> PathBuf {
     variant(tag, "beams = 30 }", &format!("beams = 30, {param} }}"))
 }
 
+/// Runs a scenario whose process localizer fails: exit 2 naming it, and (issue 45) what is
+/// known is kept: its stderr log and the error under `--out`, the error in the `--json`
+/// document instead of a report.
 fn run_failing(scenario: &Path) -> String {
-    let o = atrium(&["run", scenario.to_str().unwrap(), "--json"]);
+    let out = scenario.with_file_name("out");
+    let o = atrium(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(o.stdout.is_empty(), "no report after a failed run");
     assert!(
         err.contains("localizer \"python_pf\" failed on the "),
         "{err}"
     );
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|e| panic!("--json of a failed run: {e}: {err}"));
+    assert_eq!(doc["passed"], false);
+    assert_eq!(doc["failed_localizer"]["name"], "python_pf");
+    assert!(doc["error"].as_str().unwrap().contains("python_pf"));
+    assert!(doc["metrics"].is_null(), "no report after a failed run");
+    let log = std::fs::read_to_string(out.join("log_python_pf.txt"))
+        .unwrap_or_else(|e| panic!("the failed run's log under --out: {e}: {err}"));
+    assert_eq!(doc["logs"]["python_pf"].as_str(), Some(log.as_str()));
+    assert!(log.contains("particle_filter"), "{log}");
+    let error = std::fs::read_to_string(out.join("error.txt")).unwrap();
+    assert!(error.contains("localizer \"python_pf\" failed on the "));
+    // Nothing that belongs to a finished run.
+    assert!(!out.join("metrics.json").exists() && !out.join("python_pf.tum").exists());
     err
 }
 
@@ -169,4 +192,120 @@ fn a_missing_command_exits_2_before_the_run() {
         err.contains("\"atrium-no-such-localizer\" not found on PATH"),
         "{err}"
     );
+}
+
+/// Whether process `pid` is gone for good: no such process, a zombie, or one with SIGKILL
+/// pending (sent to its group; it runs no more user code). Read from /proc, so no waiting.
+#[cfg(target_os = "linux")]
+fn ended(pid: u32) -> bool {
+    let Ok(status) = std::fs::read_to_string(format!("/proc/{pid}/status")) else {
+        return true;
+    };
+    let field = |name: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))
+            .map(str::trim)
+            .unwrap_or_default()
+            .to_string()
+    };
+    let pending = |name: &str| u64::from_str_radix(&field(name), 16).unwrap_or(0) & (1 << 8) != 0;
+    field("State:").starts_with('Z')
+        || field("State:").starts_with('X')
+        || pending("ShdPnd:")
+        || pending("SigPnd:")
+}
+
+/// Issue 45: on SIGTERM (or Ctrl-C) a process localizer's temporary map folder
+/// (`grid = "files"`) is removed, and the localizer and what it forked are ended with their
+/// process group.
+#[cfg(target_os = "linux")]
+#[test]
+fn sigterm_ends_the_process_group_and_removes_the_grid_folder() {
+    use std::process::{Command, Stdio};
+    let dir = tmpdir("process-sigterm");
+    let tmp = dir.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let marker = dir.join("started.txt");
+    // Answers the hello, starts a child in its own process group (it forks; it does not
+    // setsid), writes where its grid is and both pids to the marker, then hangs.
+    let script = format!(
+        r#"
+import json, os, subprocess, sys, time
+hello = json.loads(sys.stdin.readline())
+print(json.dumps({{"type": "hello", "protocol": 1, "subscribe": []}}), flush=True)
+child = subprocess.Popen(["sleep", "1000"])
+with open({marker:?} + ".tmp", "w") as f:
+    f.write("%s %d %d" % (os.path.dirname(hello["map"]["occupancy_grid"]["yaml"]), os.getpid(), child.pid))
+os.rename({marker:?} + ".tmp", {marker:?})
+time.sleep(1000)
+"#,
+        marker = marker.to_str().unwrap()
+    );
+    std::fs::write(dir.join("hang.py"), script).unwrap();
+    let root = repo("").canonicalize().unwrap();
+    let scenario = dir.join("hang.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            r#"
+name = "hang"
+world = "{root}/worlds/campus.toml"
+robot = "{root}/robots/urdf/pioneer3dx.urdf"
+duration_s = 10.0
+[map]
+resolution = 0.5
+[start]
+pose = [2.0, 20.0, 0.0]
+[route]
+waypoints = [[6.0, 20.0]]
+[[localizers]]
+name = "p"
+kind = "process"
+command = ["python3", "hang.py"]
+grid = "files"
+timeout_s = 100000
+"#,
+            root = root.display()
+        ),
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_atrium"))
+        .args(["run", scenario.to_str().unwrap(), "--no-cache"])
+        .env("TMPDIR", &tmp)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Waits for the localizer to say it is running (a condition, not a delay).
+    while !marker.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "atrium ended early");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let text = std::fs::read_to_string(&marker).unwrap();
+    let mut parts = text.split(' ');
+    let grid_dir = PathBuf::from(parts.next().unwrap());
+    let localizer: u32 = parts.next().unwrap().parse().unwrap();
+    let forked: u32 = parts.next().unwrap().parse().unwrap();
+    assert!(grid_dir.starts_with(&tmp) && grid_dir.is_dir(), "{text}");
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        !grid_dir.exists(),
+        "{} left behind: {err}",
+        grid_dir.display()
+    );
+    assert_eq!(std::fs::read_dir(&tmp).unwrap().count(), 0, "{err}");
+    assert!(
+        ended(localizer),
+        "the localizer {localizer} outlived atrium"
+    );
+    assert!(ended(forked), "its child {forked} outlived atrium");
+    let _ = std::fs::remove_dir_all(&dir);
 }

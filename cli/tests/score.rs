@@ -289,3 +289,91 @@ fn bad_estimates_are_refused_or_warned_about() {
     assert!(stderr(&o).contains("--name"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 45: estimates that are wrong are refused naming the line or argument; legal but
+/// suspicious ones (headings in degrees, a trajectory much longer than the recording) are
+/// scored with a warning.
+#[test]
+fn hostile_estimates_round_three() {
+    let dir = tmpdir("score-45");
+    let (_, rec) = run_and_record(&dir);
+    let rec_s = rec.to_str().unwrap();
+    let lines: Vec<String> = std::fs::read_to_string(dir.join("run/mcl.tum"))
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    let write = |name: &str, lines: &[String]| {
+        let p = dir.join(name);
+        std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        p
+    };
+    // Coordinates near 1e308 and 1e200 overflowed rmse and mean to null / inf.
+    for (name, v) in [("huge308.tum", "1.7e308"), ("huge200.tum", "-1e200")] {
+        let mut huge = lines.clone();
+        let f: Vec<&str> = huge[3].split(' ').collect();
+        huge[3] = format!("{} {v} {} 0 0 0 0 1", f[0], f[2]);
+        let p = write(name, &huge);
+        let o = score(&[rec_s, p.to_str().unwrap(), "--json"]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(name) && err.contains("line 4") && err.contains("farther than"),
+            "{err}"
+        );
+    }
+    // Arguments swapped: the first is said not to be a recording.
+    let good = write("good.tum", &lines);
+    let o = score(&[good.to_str().unwrap(), rec_s]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("good.tum") && err.contains("is not a recording") && err.contains("swapped"),
+        "{err}"
+    );
+    // A CSV with theta in degrees: scored, with a warning.
+    let mut csv = vec!["t,x,y,theta".to_string()];
+    for l in &lines {
+        let f: Vec<f64> = l.split(' ').map(|v| v.parse().unwrap()).collect();
+        let yaw =
+            (2.0 * (f[7] * f[6] + f[4] * f[5])).atan2(1.0 - 2.0 * (f[5] * f[5] + f[6] * f[6]));
+        csv.push(format!(
+            "{},{},{},{}",
+            f[0],
+            f[1],
+            f[2],
+            90.0 + yaw.to_degrees()
+        ));
+    }
+    let p = write("degrees.csv", &csv);
+    let o = score(&[rec_s, p.to_str().unwrap(), "--name", "mcl"]);
+    let err = stderr(&o);
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{err}");
+    assert!(
+        err.contains("warning") && err.contains("beyond ±2π"),
+        "{err}"
+    );
+    // A trajectory twice as long as the recording (of another run): a warning.
+    let span = {
+        let t = |l: &String| l.split(' ').next().unwrap().parse::<f64>().unwrap();
+        t(&lines[lines.len() - 1]) - t(&lines[0])
+    };
+    let mut long = lines.clone();
+    for l in &lines {
+        let (t, rest) = l.split_once(' ').unwrap();
+        long.push(format!(
+            "{:.6} {rest}",
+            t.parse::<f64>().unwrap() + span + 0.5
+        ));
+    }
+    let p = write("long.tum", &long);
+    let o = score(&[rec_s, p.to_str().unwrap(), "--name", "mcl"]);
+    let err = stderr(&o);
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{err}");
+    assert!(err.contains("lie outside the recording"), "{err}");
+    // The trajectory itself: no such warning.
+    let o = score(&[rec_s, good.to_str().unwrap(), "--name", "mcl"]);
+    let err = stderr(&o);
+    assert!(!err.contains("warning"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

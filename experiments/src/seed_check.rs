@@ -216,6 +216,16 @@ pub fn check_seeds_observed(
             format!("{min_pass} is more than the {} seeds run", seeds.len()),
         ));
     }
+    // Without expectations every seed "passes": a PASS that checked nothing.
+    if scenario.expect.is_empty() {
+        return Err(ScenarioError::field(
+            &scenario.file,
+            "expect",
+            "the scenario states no expectations ([expect.<localizer>]), so `check` has \
+             nothing to check on any seed; add expectations, or use `atrium run` to see the \
+             figures",
+        ));
+    }
     // Bad localizer tables or expectations fail once, before any run.
     registry.check(scenario)?;
     let runs = seeds

@@ -157,6 +157,18 @@ fn gunzip(bytes: &[u8]) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
+/// The most words a line may have: far above any laser's beam count (ROBOTLASER1 holds two
+/// values per beam), far below what a damaged or hostile line can hold.
+pub const MAX_WORDS: usize = 1 << 18;
+
+/// A word quoted for a message, cut to its first 40 characters.
+fn quote(w: &str) -> String {
+    match w.char_indices().nth(40) {
+        None => format!("{w:?}"),
+        Some((cut, _)) => format!("{:?}... ({} bytes)", &w[..cut], w.len()),
+    }
+}
+
 /// The words of one line, with its number, for field errors.
 struct Fields<'a> {
     path: &'a Path,
@@ -193,8 +205,8 @@ impl<'a> Fields<'a> {
         let w = self.word(field)?;
         match w.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(self.err(field, format!("{w:?} is not finite"))),
-            Err(_) => Err(self.err(field, format!("{w:?} is not a number"))),
+            Ok(_) => Err(self.err(field, format!("{} is not finite", quote(w)))),
+            Err(_) => Err(self.err(field, format!("{} is not a number", quote(w)))),
         }
     }
 
@@ -202,7 +214,7 @@ impl<'a> Fields<'a> {
         let w = self.word(&field)?;
         let n: usize = w
             .parse()
-            .map_err(|_| self.err(field, format!("{w:?} is not a count")))?;
+            .map_err(|_| self.err(field, format!("{} is not a count", quote(w))))?;
         // Each value is one word: a count beyond the words left is damage, refused before
         // anything is allocated.
         let left = self.words.len() - self.pos;
@@ -356,7 +368,19 @@ pub fn parse(text: &[u8], path: &Path) -> Result<CarmenLog, FormatError> {
         let line = k + 1;
         // Hostnames may be in any encoding; numbers are ASCII either way.
         let s = String::from_utf8_lossy(raw);
-        let words: Vec<&str> = s.split_ascii_whitespace().collect();
+        // At most one word past the limit is collected: a line of a hundred million words is
+        // refused by its count, not gathered into gigabytes of word slices first.
+        let words: Vec<&str> = s.split_ascii_whitespace().take(MAX_WORDS + 1).collect();
+        if words.len() > MAX_WORDS {
+            return Err(FormatError::field(
+                path,
+                format!("line {line}"),
+                format!(
+                    "more than {MAX_WORDS} words: no CARMEN message is that long (a laser of \
+                     {MAX_WORDS} beams would be); the file is damaged"
+                ),
+            ));
+        }
         let Some(&first) = words.first() else {
             continue;
         };
@@ -528,6 +552,24 @@ mod tests {
 
     fn p() -> &'static Path {
         Path::new("t.clf")
+    }
+
+    /// Issue 45 class: a line of millions of words is refused by its count without being
+    /// collected, and a huge word is quoted cut.
+    #[test]
+    fn huge_lines_and_words_are_refused_cheaply() {
+        let many = format!("FLASER {}\n", "1 ".repeat(MAX_WORDS + 10));
+        let e = parse(many.as_bytes(), p()).unwrap_err().to_string();
+        assert!(
+            e.contains("line 1") && e.contains("more than 262144 words"),
+            "{e}"
+        );
+        let word = format!(
+            "ODOM {} 0 0 0 0 0 1.0 host 1.0\n",
+            "9".repeat(1_000_000) + "x"
+        );
+        let e = parse(word.as_bytes(), p()).unwrap_err().to_string();
+        assert!(e.len() < 400 && e.contains("(1000001 bytes)"), "{e}");
     }
 
     fn mit() -> PathBuf {

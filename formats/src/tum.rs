@@ -30,12 +30,22 @@ pub fn yaw_of_quaternion(x: f64, y: f64, z: f64, w: f64) -> f64 {
     (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
 }
 
+/// `s` quoted for a message, cut to its first 60 characters: a field or header of hundreds of
+/// megabytes (one line of a hostile file) must not be copied into the error, twice over.
+fn quote(s: &str) -> String {
+    const KEEP: usize = 60;
+    match s.char_indices().nth(KEEP) {
+        None => format!("{s:?}"),
+        Some((cut, _)) => format!("{:?}... ({} bytes)", &s[..cut], s.len()),
+    }
+}
+
 fn parse_num(path: &Path, line: usize, what: &str, s: &str) -> Result<f64, FormatError> {
     let v = s.trim().parse::<f64>().map_err(|_| {
         FormatError::field(
             path,
             format!("line {line}"),
-            format!("{what} {:?} is not a number", s.trim()),
+            format!("{what} {} is not a number", quote(s.trim())),
         )
     })?;
     if !v.is_finite() {
@@ -149,7 +159,8 @@ pub fn read_csv(path: &Path, text: &str) -> Result<Vec<Row>, FormatError> {
                             path,
                             &at,
                             format!(
-                                "header {line:?} has no {:?} column (expected t,x,y,theta){hint}",
+                                "header {} has no {:?} column (expected t,x,y,theta){hint}",
+                                quote(line),
                                 names[0]
                             ),
                         )
@@ -244,6 +255,25 @@ mod tests {
         // A line of many fields is refused by its count.
         let long = "1 ".repeat(100_000);
         assert!(err(read_tum(p, &long)).contains("more than 8"));
+    }
+
+    /// Issue 45: a huge field is quoted cut, not copied into the message whole.
+    #[test]
+    fn a_huge_field_is_quoted_cut() {
+        let line = format!("0.1 {} 0 0 0 0 0 1", "x".repeat(10_000_000));
+        let e = read_tum(Path::new("big.tum"), &line)
+            .unwrap_err()
+            .to_string();
+        assert!(e.len() < 300, "{} bytes", e.len());
+        assert!(
+            e.contains("... (10000000 bytes)") && e.contains("line 1"),
+            "{e}"
+        );
+        let header = format!("t,x,y,{}\n0,1,2,3\n", "h".repeat(10_000_000));
+        let e = read_csv(Path::new("big.csv"), &header)
+            .unwrap_err()
+            .to_string();
+        assert!(e.len() < 400, "{} bytes", e.len());
     }
 
     #[test]

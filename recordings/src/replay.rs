@@ -934,6 +934,19 @@ pub fn replay_recording(
     rec: &Recording,
     options: ReplayOptions,
 ) -> Result<Replayed, ScenarioError> {
+    // The names name output files: a path or a name given twice must not reach them.
+    for (i, (name, _)) in options.localizers.iter().enumerate() {
+        let field = format!("localizers[{i}]");
+        atrium_scenarios::scenario::check_localizer_name(name)
+            .map_err(|e| ScenarioError::field(&rec.path, &field, e))?;
+        if options.localizers[..i].iter().any(|(n, _)| n == name) {
+            return Err(ScenarioError::field(
+                &rec.path,
+                field,
+                format!("the name {name:?} is given twice"),
+            ));
+        }
+    }
     let mut scenario = rec.scenario(options.scenario.as_deref())?;
     if !options.localizers.is_empty() {
         scenario.localizers = options

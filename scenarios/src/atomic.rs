@@ -9,8 +9,9 @@ use std::sync::{Mutex, OnceLock};
 
 /// Files being written under a temporary name right now. The CLI's interrupt handler removes
 /// them ([`remove_unfinished`]), so Ctrl-C or a `kill` never leaves a half-written file behind.
-fn unfinished() -> &'static Mutex<Vec<PathBuf>> {
-    static FILES: OnceLock<Mutex<Vec<PathBuf>>> = OnceLock::new();
+/// Each with whether it is a folder (removed with everything in it).
+fn unfinished() -> &'static Mutex<Vec<(PathBuf, bool)>> {
+    static FILES: OnceLock<Mutex<Vec<(PathBuf, bool)>>> = OnceLock::new();
     FILES.get_or_init(|| Mutex::new(Vec::new()))
 }
 
@@ -23,8 +24,18 @@ pub struct Unfinished {
 
 impl Unfinished {
     pub fn register(path: &Path) -> Unfinished {
+        Self::push(path, false)
+    }
+
+    /// A temporary folder (a recording's `<dir>.partial/`, a process localizer's map folder):
+    /// removed on interrupt with everything in it. Register only folders Atrium made itself.
+    pub fn register_dir(path: &Path) -> Unfinished {
+        Self::push(path, true)
+    }
+
+    fn push(path: &Path, dir: bool) -> Unfinished {
         let path = path.to_path_buf();
-        lock(unfinished()).push(path.clone());
+        lock(unfinished()).push((path.clone(), dir));
         Unfinished { path }
     }
 }
@@ -32,9 +43,72 @@ impl Unfinished {
 impl Drop for Unfinished {
     fn drop(&mut self) {
         let mut files = lock(unfinished());
-        if let Some(i) = files.iter().position(|p| *p == self.path) {
+        if let Some(i) = files.iter().position(|(p, _)| *p == self.path) {
             files.swap_remove(i);
         }
+    }
+}
+
+/// Process groups of children Atrium started (process localizers, each the leader of its own
+/// group), ended on interrupt ([`end_child_groups`]) since a signal's exit runs no destructor.
+fn child_groups() -> &'static Mutex<Vec<u32>> {
+    static GROUPS: OnceLock<Mutex<Vec<u32>>> = OnceLock::new();
+    GROUPS.get_or_init(|| Mutex::new(Vec::new()))
+}
+
+/// A child's process group, killed (SIGKILL to the whole group, so the children it forked go
+/// too) by [`ChildGroup::end`], when dropped, or by [`end_child_groups`] on interrupt.
+#[derive(Debug)]
+pub struct ChildGroup {
+    pgid: Option<u32>,
+}
+
+impl ChildGroup {
+    /// `pgid`: the id of a group made for a child (`Command::process_group(0)`: its pid).
+    pub fn register(pgid: u32) -> ChildGroup {
+        lock(child_groups()).push(pgid);
+        ChildGroup { pgid: Some(pgid) }
+    }
+
+    /// Kills every process left in the group and forgets it.
+    pub fn end(&mut self) {
+        if let Some(g) = self.pgid.take() {
+            kill_group(g);
+            let mut groups = lock(child_groups());
+            if let Some(i) = groups.iter().position(|p| *p == g) {
+                groups.swap_remove(i);
+            }
+        }
+    }
+}
+
+impl Drop for ChildGroup {
+    fn drop(&mut self) {
+        self.end();
+    }
+}
+
+fn kill_group(pgid: u32) {
+    #[cfg(unix)]
+    if let Ok(g) = i32::try_from(pgid) {
+        // Never 0 or 1 (our own group, or every process): only a child's own group.
+        if g > 1 {
+            // SAFETY: kill(2) with a negative pid signals that process group; no memory is
+            // involved.
+            unsafe {
+                libc::kill(-g, libc::SIGKILL);
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = pgid;
+}
+
+/// Kills the process groups of every child still running (the interrupt handler calls it
+/// before [`remove_unfinished`], so no child writes into a folder being removed).
+pub fn end_child_groups() {
+    for g in std::mem::take(&mut *lock(child_groups())) {
+        kill_group(g);
     }
 }
 
@@ -49,7 +123,14 @@ pub fn remove_unfinished() -> Vec<PathBuf> {
     let files = std::mem::take(&mut *lock(unfinished()));
     files
         .into_iter()
-        .filter(|p| std::fs::remove_file(p).is_ok())
+        .filter(|(p, dir)| {
+            if *dir {
+                std::fs::remove_dir_all(p).is_ok()
+            } else {
+                std::fs::remove_file(p).is_ok()
+            }
+        })
+        .map(|(p, _)| p)
         .collect()
 }
 

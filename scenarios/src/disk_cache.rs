@@ -245,6 +245,11 @@ impl DiskCache {
         decode: impl FnOnce(&[u8]) -> Option<T>,
     ) -> Option<T> {
         let path = self.entry_path(kind, key);
+        // Only a regular file is an entry: reading a FIFO (or a device) put there would
+        // block the run for good. Anything else is a miss, and `put` renames over it.
+        if !std::fs::metadata(&path).is_ok_and(|m| m.is_file()) {
+            return None;
+        }
         let bytes = std::fs::read(&path).ok()?;
         let value = decode(decode_entry(&bytes, &Self::full_key(kind, key))?)?;
         // Recently used: the last entries the cap evicts. Best effort (a read-only cache).
@@ -256,6 +261,25 @@ impl DiskCache {
 
     /// Stores `payload` under `kind` and `key` (temporary file, fsync, rename).
     pub fn put(&self, kind: &str, key: &[u8], payload: &[u8]) -> std::io::Result<()> {
+        let result = self.put_entry(kind, key, payload);
+        if let Err(e) = &result {
+            // Said once per process: a cache that cannot be written (a read-only folder
+            // beside an installed binary, a cluster node's) silently costs every run a rebuild.
+            static WARNED: std::sync::atomic::AtomicBool =
+                std::sync::atomic::AtomicBool::new(false);
+            if !WARNED.swap(true, Ordering::Relaxed) {
+                eprintln!(
+                    "warning: cannot write the cache in {} ({e}): what runs learn from a world is \
+                     rebuilt every time; set ATRIUM_CACHE_DIR to a writable folder (or pass \
+                     --no-cache)",
+                    self.dir.display()
+                );
+            }
+        }
+        result
+    }
+
+    fn put_entry(&self, kind: &str, key: &[u8], payload: &[u8]) -> std::io::Result<()> {
         std::fs::create_dir_all(&self.dir)?;
         let path = self.entry_path(kind, key);
         let full = Self::full_key(kind, key);
@@ -626,6 +650,27 @@ mod tests {
         // No temporary file is left behind.
         let names: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
         assert_eq!(names.len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Issue 45: a FIFO where an entry belongs hung the run (reading it blocks for a writer
+    /// that never comes). It is a miss, and the entry written over it reads back. (On the old
+    /// code this test does not fail; it hangs.)
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_in_place_of_an_entry_is_a_miss_and_is_replaced() {
+        let dir = temp_dir("fifo");
+        let c = DiskCache::at(&dir);
+        let path = c.entry_path("t", b"k");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&path)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        assert_eq!(c.get("t", b"k"), None);
+        c.put("t", b"k", b"payload").unwrap();
+        assert!(std::fs::metadata(&path).unwrap().is_file());
+        assert_eq!(c.get("t", b"k").unwrap(), b"payload");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -24,6 +24,9 @@ pub enum ScenarioError {
         reading: String,
         t: f64,
         msg: String,
+        /// What each localizer kept up to the failure (name, text: a process localizer's
+        /// stderr), for `--out` to write as `log_<name>.txt`.
+        logs: Vec<(String, String)>,
     },
     #[error(transparent)]
     World(#[from] atrium_worlds::WorldError),

@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-pub use crate::atomic::{remove_unfinished, write_atomic, Unfinished};
+pub use crate::atomic::{
+    end_child_groups, remove_unfinished, write_atomic, ChildGroup, Unfinished,
+};
 
 /// Checks, before a long run, that `dir` can be written: it is a folder (or can be created
 /// as one: its nearest existing ancestor is a folder) and a file can be created in it.
@@ -112,6 +114,57 @@ pub fn write_run(
     Ok(written)
 }
 
+/// What a run that failed leaves under `--out`: `log_<localizer>.txt` for every localizer that
+/// kept a log (the failed process localizer's stderr explains the failure) and `error.txt`
+/// with the error. Returns the paths written.
+pub fn write_failed_run(dir: &Path, err: &crate::ScenarioError) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
+    let mut written = Vec::new();
+    let mut put = |name: String, bytes: &[u8]| -> Result<(), String> {
+        let p = dir.join(name);
+        write_atomic(&p, bytes).map_err(|e| format!("{}: cannot write file: {e}", p.display()))?;
+        written.push(p);
+        Ok(())
+    };
+    if let crate::ScenarioError::Localizer { logs, .. } = err {
+        for (name, log) in logs {
+            // Names are checked when the scenario loads; never write outside `dir`.
+            if crate::scenario::check_localizer_name(name).is_ok() {
+                put(format!("log_{name}.txt"), log.as_bytes())?;
+            }
+        }
+    }
+    put("error.txt".into(), format!("{err}\n").as_bytes())?;
+    Ok(written)
+}
+
+/// The `--json` document of a run that failed: the error, and for a localizer's failure which
+/// localizer, on what reading at what time, and the names of the logs kept.
+pub fn failed_run_json(err: &crate::ScenarioError) -> serde_json::Value {
+    let mut doc = serde_json::json!({ "passed": false, "error": err.to_string() });
+    if let crate::ScenarioError::Localizer {
+        name,
+        reading,
+        t,
+        logs,
+        ..
+    } = err
+    {
+        doc["failed_localizer"] = serde_json::json!({
+            "name": name,
+            "reading": reading,
+            "t": t,
+        });
+        doc["logs"] = logs
+            .iter()
+            .map(|(n, l)| (n.clone(), serde_json::Value::String(l.clone())))
+            .collect::<serde_json::Map<_, _>>()
+            .into();
+    }
+    doc
+}
+
 fn write_figure(
     written: &mut Vec<PathBuf>,
     dir: &Path,
@@ -147,11 +200,16 @@ pub fn export_map(
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .ok_or_else(|| format!("{}: not a file path", output.display()))?;
-            write_atomic(&pgm, &grid.to_pgm()).map_err(fail)?;
+            // Both checked before either is written (a folder named m.pgm was reported as a
+            // failure to write m.yaml, after nothing or half was written).
+            check_writable_file(output, "-o")?;
+            check_writable_file(&pgm, "-o (the image beside the YAML)")?;
+            write_atomic(&pgm, &grid.to_pgm()).map_err(|e| format!("{}: {e}", pgm.display()))?;
             write_atomic(output, grid.ros_yaml(&image).as_bytes()).map_err(fail)?;
             Ok(vec![output.to_path_buf(), pgm])
         }
         "vector" => {
+            check_writable_file(output, "-o")?;
             write_atomic(output, world.vector_map(include_glass).to_text().as_bytes())
                 .map_err(fail)?;
             Ok(vec![output.to_path_buf()])

@@ -393,7 +393,9 @@ pub fn run_localizers(
     let mut readings: Vec<Reading> = Vec::new();
     let mut last_odom: Option<Pose2> = None;
 
-    while let Some(tick) = stream.next(&mut readings)? {
+    // A localizer's failure ends the run; the logs of all are kept with the error (below).
+    let mut failure: Option<ScenarioError> = None;
+    'ticks: while let Some(tick) = stream.next(&mut readings)? {
         for r in &readings {
             match r {
                 Reading::Odometry(o) => {
@@ -405,8 +407,10 @@ pub fn run_localizers(
                         };
                         for (l, c) in localizers.iter_mut().zip(cpu.iter_mut()) {
                             let t1 = Instant::now();
-                            l.predict(&delta)
-                                .map_err(|e| failed(l.as_ref(), "odometry", o.stamp, e))?;
+                            if let Err(e) = l.predict(&delta) {
+                                failure = Some(failed(l.as_ref(), "odometry", o.stamp, e));
+                                break 'ticks;
+                            }
                             *c += t1.elapsed().as_secs_f64();
                         }
                     }
@@ -415,9 +419,11 @@ pub fn run_localizers(
                 other => {
                     for (l, c) in localizers.iter_mut().zip(cpu.iter_mut()) {
                         let t1 = Instant::now();
-                        l.update(other).map_err(|e| {
-                            failed(l.as_ref(), reading_kind(other), other.stamp(), e)
-                        })?;
+                        if let Err(e) = l.update(other) {
+                            failure =
+                                Some(failed(l.as_ref(), reading_kind(other), other.stamp(), e));
+                            break 'ticks;
+                        }
                         *c += t1.elapsed().as_secs_f64();
                     }
                 }
@@ -478,6 +484,18 @@ pub fn run_localizers(
                 obs.people(&tick, &people)?;
             }
         }
+    }
+    if let Some(mut e) = failure {
+        // What every localizer kept (a process localizer's stderr): `--out` writes it beside
+        // the error, since the failed one's log is what explains the failure.
+        if let ScenarioError::Localizer { logs, .. } = &mut e {
+            for (l, spec) in localizers.iter_mut().zip(&scenario.localizers) {
+                if let Some(log) = l.capabilities().and_then(|c| c.log()) {
+                    logs.push((spec.name.clone(), log));
+                }
+            }
+        }
+        return Err(e);
     }
     let summary = stream.summary();
 
@@ -622,6 +640,7 @@ fn failed(l: &dyn Localizer, reading: &str, t: f64, e: LocalizerError) -> Scenar
         reading: reading.to_string(),
         t,
         msg: e.0,
+        logs: Vec::new(),
     }
 }
 

@@ -180,8 +180,20 @@ pub fn name_from(dir: &Path, file: &Path) -> String {
     parts.join("/")
 }
 
-/// The content hash of each of `files`, named from `dir`, sorted by name.
+/// The content hash of each of `files`, named from `dir`, sorted by name. Folder and files
+/// are canonicalized first, so the names (and the sweep's hash) do not depend on how the
+/// sweep file's path was typed: `small.toml` and `/abs/small.toml` holding absolute paths
+/// name their inputs alike (issue 45: shards run from another folder were refused).
 pub fn hash_files(dir: &Path, files: &[PathBuf]) -> Result<Vec<InputFile>, ScenarioError> {
+    let canonical = |p: &Path| {
+        let p = if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        };
+        p.canonicalize().unwrap_or_else(|_| p.to_path_buf())
+    };
+    let dir = canonical(dir);
     let mut out = Vec::with_capacity(files.len());
     for f in files {
         let bytes = std::fs::read(f).map_err(|err| ScenarioError::Io {
@@ -189,7 +201,7 @@ pub fn hash_files(dir: &Path, files: &[PathBuf]) -> Result<Vec<InputFile>, Scena
             err,
         })?;
         out.push(InputFile {
-            file: name_from(dir, f),
+            file: name_from(&dir, &canonical(f)),
             hash: fnv_hex(&[&bytes]),
         });
     }
@@ -235,6 +247,34 @@ mod tests {
     fn hash_depends_on_every_part() {
         assert_ne!(fnv_hex(&[b"ab", b"c"]), fnv_hex(&[b"a", b"bc"]));
         assert_eq!(fnv_hex(&[b"x"]), fnv_hex(&[b"x"]));
+    }
+
+    /// Issue 45: `atrium sweep small.toml` (from its folder) and `atrium sweep
+    /// /abs/small.toml` of a sweep naming absolute paths must hash alike, or merge and
+    /// `--resume` refuse a shard run from another folder.
+    #[test]
+    fn names_do_not_depend_on_how_the_folder_is_typed() {
+        let dir = std::env::temp_dir()
+            .canonicalize()
+            .unwrap()
+            .join(format!("atrium-inputs-typed-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sweeps")).unwrap();
+        let input = dir.join("base.toml");
+        std::fs::write(&input, "x").unwrap();
+        let abs_dir = dir.join("sweeps");
+        // The same folder typed relative to the working directory, through `..` to the root.
+        let cwd = std::env::current_dir().unwrap().canonicalize().unwrap();
+        let mut rel = PathBuf::new();
+        for _ in cwd.components().skip(1) {
+            rel.push("..");
+        }
+        rel.push(abs_dir.strip_prefix("/").unwrap());
+        let a = hash_files(&abs_dir, std::slice::from_ref(&input)).unwrap();
+        let b = hash_files(&rel, std::slice::from_ref(&input)).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a[0].file, "../base.toml");
+        assert_eq!(sweep_hash("t", &a), sweep_hash("t", &b));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -441,7 +441,8 @@ impl Ros2Recorder {
             .unwrap_or_else(|| "bag".into());
         let file_name = format!("{stem}_0.mcap");
         let file_path = tmp_dir.join(&file_name);
-        let unfinished = atrium_scenarios::output::Unfinished::register(&file_path);
+        // The folder, not just the file: an interrupt must leave no empty `<dir>.partial/`.
+        let unfinished = atrium_scenarios::output::Unfinished::register_dir(&tmp_dir);
         let cleanup = |e: ScenarioError| {
             let _ = std::fs::remove_dir_all(&tmp_dir);
             e

@@ -35,6 +35,12 @@ fn header(r: &mut CdrReader) -> Result<f64, String> {
 /// `geometry_msgs/Pose` on the floor plane.
 fn pose(r: &mut CdrReader) -> Result<Pose2, String> {
     let [x, y, _z, qx, qy, qz, qw] = r.f64_array::<7>()?;
+    let norm = (qx * qx + qy * qy + qz * qz + qw * qw).sqrt();
+    if norm.is_nan() || norm <= 1e-6 {
+        return Err(format!(
+            "orientation quaternion ({qx}, {qy}, {qz}, {qw}) is not a rotation (zero length)"
+        ));
+    }
     let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
     Ok(Pose2::new(x, y, yaw))
 }

@@ -18,6 +18,10 @@ use std::path::{Path, PathBuf};
 /// nanoseconds or a rounded text file is not bit-exact).
 pub const SNAP_S: f64 = 1e-7;
 
+/// The farthest an estimated position may lie from the map's origin, m: beyond it no map
+/// reaches, and squared errors overflow.
+pub const MAX_COORDINATE_M: f64 = 1e9;
+
 /// Where the estimates came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -130,8 +134,39 @@ impl Estimates {
             if let Some((what, v)) = values.iter().find(|(_, v)| !v.is_finite()) {
                 return Err(bad(path, &r.at, format!("{what} is {v}: not a number")));
             }
+            // Positions this far out are no place on any map (a unit or column mix-up), and
+            // their errors would overflow the metrics to infinity.
+            if let Some((what, v)) = values[1..3]
+                .iter()
+                .find(|(_, v)| v.abs() > MAX_COORDINATE_M)
+            {
+                return Err(bad(
+                    path,
+                    &r.at,
+                    format!(
+                        "{what} is {v} m: farther than {MAX_COORDINATE_M:e} m from the origin, \
+                         no position on a map (wrong units or columns?)"
+                    ),
+                ));
+            }
             if r.cov.is_some_and(|c| c.iter().any(|v| !v.is_finite())) {
                 return Err(bad(path, &r.at, "the covariance holds a non-finite number"));
+            }
+            if let Some(c) = r.cov {
+                if let Some((i, name)) = [(0, "x"), (1, "y"), (2, "theta")]
+                    .into_iter()
+                    .find(|&(i, _)| c[(i, i)] < 0.0)
+                {
+                    return Err(bad(
+                        path,
+                        &r.at,
+                        format!(
+                            "the covariance's variance of {name} is negative ({}): no \
+                             covariance has that",
+                            c[(i, i)]
+                        ),
+                    ));
+                }
             }
             if i > 0 {
                 let prev = &rows[i - 1];
@@ -291,6 +326,24 @@ fn read_mcap(path: &Path, bytes: &[u8], topic: Option<&str>) -> Result<Estimates
         let (t, pose, cov) = if schema == POSE_IN_FRAME {
             let p = fg::PoseInFrame::decode(&data[..]).map_err(|e| fail(&e))?;
             let ns = p.timestamp.map_or(header.log_time, |t| t.total_nanos());
+            // A missing or zero-length orientation is no heading (it would read as 0).
+            let q = p.pose.as_ref().and_then(|p| p.orientation.as_ref());
+            let norm = q.map_or(0.0, |q| {
+                (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt()
+            });
+            if norm.is_nan() || norm <= 1e-6 {
+                return Err(bad(
+                    path,
+                    &at,
+                    match q {
+                        Some(q) => format!(
+                            "orientation quaternion ({}, {}, {}, {}) is not a rotation (zero length)",
+                            q.x, q.y, q.z, q.w
+                        ),
+                        None => "the pose has no orientation".to_string(),
+                    },
+                ));
+            }
             (ns as f64 / 1e9, codec::pose2_of(p.pose.as_ref()), None)
         } else {
             let r = cdr::decode(schema, &data).map_err(|e| fail(&e))?;
@@ -543,6 +596,52 @@ mod tests {
             msg.contains("topic /pose, message 3") && msg.contains("time order"),
             "{msg}"
         );
+    }
+
+    /// Issue 45: an all-zero quaternion was read as heading 0, a negative variance made
+    /// NEES silently null, and positions near 1e308 overflowed the metrics.
+    #[test]
+    fn zero_quaternions_negative_variances_and_huge_positions_are_refused() {
+        use foxglove::Encode;
+        let mut msg = codec::pose_in_frame(100_000_000, "map", &Pose2::new(1.0, 2.0, 0.0));
+        if let Some(q) = msg.pose.as_mut().and_then(|p| p.orientation.as_mut()) {
+            (q.x, q.y, q.z, q.w) = (0.0, 0.0, 0.0, 0.0);
+        }
+        let mut b = Vec::new();
+        msg.encode(&mut b).unwrap();
+        let p = write_mcap(
+            "zero_q.mcap",
+            &[("/pose", POSE_IN_FRAME, "protobuf", vec![(1, b)])],
+        );
+        let e = Estimates::read(&p, None).unwrap_err().to_string();
+        assert!(
+            e.contains("topic /pose, message 1") && e.contains("not a rotation"),
+            "{e}"
+        );
+
+        let schema = "geometry_msgs/msg/PoseWithCovarianceStamped";
+        let mut cov = [0.0; 36];
+        cov[0] = 0.25;
+        cov[7] = -0.25;
+        cov[35] = 0.01;
+        let b = cdr::tests::encode(
+            schema,
+            0,
+            100_000_000,
+            "map",
+            Pose2::new(1.0, 2.0, 0.0),
+            &cov,
+            false,
+        );
+        let p = write_mcap(
+            "neg_cov.mcap",
+            &[("/amcl_pose", schema, "cdr", vec![(1, b)])],
+        );
+        let e = Estimates::read(&p, None).unwrap_err().to_string();
+        assert!(e.contains("variance of y is negative"), "{e}");
+
+        let e = err("huge.tum", "0.1 1e308 0 0 0 0 0 1\n");
+        assert!(e.contains("line 1") && e.contains("farther than"), "{e}");
     }
 
     #[test]

@@ -343,6 +343,29 @@ fn coverage(est: &Estimates, instants: &[f64]) -> (Coverage, Vec<String>) {
             span_text(rec)
         ));
     }
+    // The other way round: a trajectory much longer than the recording (of another run, or
+    // another scenario) covers it, but most of it is never scored.
+    let outside = est
+        .stamps
+        .iter()
+        .filter(|&&t| t < rec[0] - estimates::SNAP_S || t > rec[1] + estimates::SNAP_S)
+        .count();
+    let est_len = span[1] - span[0];
+    let rec_len = rec[1] - rec[0];
+    if outside > 0 && est_len > 1.2 * rec_len.max(1e-9) + 1.0 {
+        warnings.push(format!(
+            "{outside} of {} estimates ({:.1}%) lie outside the recording: they span {} ({est_len:.1} s), \
+             the recording {} ({rec_len:.1} s); is this the trajectory of this recording?",
+            est.stamps.len(),
+            100.0 * outside as f64 / est.stamps.len() as f64,
+            span_text(span),
+            span_text(rec)
+        ));
+    }
+    // Headings in degrees read as radians: legal numbers, wrong angles.
+    if let Some(w) = degrees_warning(est) {
+        warnings.push(w);
+    }
     let mut sorted: Vec<f64> = steps.iter().map(|s| s.1).collect();
     sorted.sort_by(f64::total_cmp);
     if let Some(&median) = sorted.get(sorted.len() / 2) {
@@ -366,6 +389,72 @@ fn coverage(est: &Estimates, instants: &[f64]) -> (Coverage, Vec<String>) {
     (c, warnings)
 }
 
+/// A warning when the headings as given look like degrees: any beyond ±2π. Only a CSV gives
+/// headings as numbers (TUM and MCAP give quaternions), kept as written.
+fn degrees_warning(est: &Estimates) -> Option<String> {
+    if est.format != Format::Csv {
+        return None;
+    }
+    let raw: Vec<f64> = est.poses.iter().map(|p| p.theta).collect();
+    let beyond = raw
+        .iter()
+        .filter(|h| h.abs() > 2.0 * std::f64::consts::PI + 1e-9)
+        .count();
+    if beyond == 0 {
+        return None;
+    }
+    let max = raw.iter().fold(0.0f64, |m, h| m.max(h.abs()));
+    Some(format!(
+        "{beyond} of {} headings lie beyond ±2π (up to {max}): theta must be in radians \
+         (degrees are read as radians and score as nonsense; unwrapped radians are fine)",
+        raw.len()
+    ))
+}
+
+/// The first argument must be a recording (an MCAP file, a ROS 2 bag folder) or a log
+/// scenario (`.toml`): a trajectory there means the arguments are swapped, which is said
+/// before the second is read as estimates (and its topics complained about).
+fn check_is_recording(recording: &Path, estimates: &Path) -> Result<(), ScenarioError> {
+    if recording.extension().is_some_and(|e| e == "toml")
+        || recording.is_dir()
+        || !recording.exists()
+    {
+        return Ok(());
+    }
+    let mut head = [0u8; 8];
+    // Unreadable: the recording's reader says so, naming the error.
+    let Ok(n) =
+        std::fs::File::open(recording).and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+    else {
+        return Ok(());
+    };
+    if head[..n].starts_with(mcap::MAGIC) {
+        return Ok(());
+    }
+    let swapped = std::fs::File::open(estimates)
+        .and_then(|mut f| {
+            let mut h = [0u8; 8];
+            std::io::Read::read(&mut f, &mut h).map(|k| h[..k].starts_with(mcap::MAGIC))
+        })
+        .unwrap_or(false);
+    Err(ScenarioError::field(
+        recording,
+        "RECORDING",
+        format!(
+            "is not a recording (an MCAP file, a ROS 2 bag folder or a log scenario .toml){}; \
+             usage: atrium score RECORDING ESTIMATES",
+            if swapped {
+                format!(
+                    ", but {} is: the arguments look swapped",
+                    estimates.display()
+                )
+            } else {
+                String::new()
+            }
+        ),
+    ))
+}
+
 /// Scores the estimates at `estimates` (TUM, CSV or an MCAP pose topic) against the recording
 /// at `recording` (see the module docs).
 pub fn score(
@@ -373,6 +462,7 @@ pub fn score(
     estimates: &Path,
     mut options: ScoreOptions,
 ) -> Result<Scored, ScenarioError> {
+    check_is_recording(recording, estimates)?;
     let est = Arc::new(Estimates::read(estimates, options.topic.as_deref())?);
     let name = match options.name.take() {
         Some(n) if valid_name(&n) => n,

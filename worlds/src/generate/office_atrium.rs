@@ -206,6 +206,23 @@ pub fn validate(p: &GeneratorParams) -> Result<(), ParamError> {
     if p.name.trim().is_empty() {
         return Err(ParamError::new("name", "must not be empty"));
     }
+    // The name goes into the world file's header comment and its `name` line: a line break
+    // or control character there broke the file, reported as a bug in the generator.
+    if let Some(c) = p.name.chars().find(|c| c.is_control()) {
+        return Err(ParamError::new(
+            "name",
+            format!(
+                "must be one line of text without control characters, got {:?} (holds {c:?})",
+                p.name
+            ),
+        ));
+    }
+    if p.name.len() > 200 {
+        return Err(ParamError::new(
+            "name",
+            format!("must be at most 200 bytes, got {}", p.name.len()),
+        ));
+    }
     within("ceiling_height", p.ceiling_height, 2.0, 20.0, " m")?;
     let cw = within("corridor_width", p.corridor_width, 1.0, 100.0, " m")?;
     within("corridor_length", p.corridor_length, 2.0, MAX_EXTENT, " m")?;

@@ -147,9 +147,23 @@ impl Config {
                 .as_table()
                 .ok_or_else(|| ctx.error("env", "must be a table of strings"))?;
             for (k, v) in t {
+                // The OS takes "A=B" = "c" as A with the value "B=c"; a NUL cuts the entry.
+                if k.is_empty() || k.contains('=') || k.contains('\0') {
+                    return Err(ctx.error(
+                        &format!("env.{k:?}"),
+                        "is not a valid environment variable name (it must be non-empty, \
+                         without '=' or NUL)",
+                    ));
+                }
                 let s = v
                     .as_str()
                     .ok_or_else(|| ctx.error(&format!("env.{k}"), "must be a string"))?;
+                if s.contains('\0') {
+                    return Err(ctx.error(
+                        &format!("env.{k}"),
+                        "contains a NUL character, which no environment variable can hold",
+                    ));
+                }
                 env.push((k.clone(), s.to_string()));
             }
         }
@@ -254,8 +268,9 @@ fn resolve_program(ctx: &BuildContext, cfg: &Config) -> Result<PathBuf, Scenario
     ))
 }
 
-/// A temporary folder removed when dropped (the grid files of `grid = "files"`).
-struct TempDir(PathBuf);
+/// A temporary folder removed when dropped (the grid files of `grid = "files"`), and on
+/// SIGINT or SIGTERM by the CLI's handler (a signal's exit runs no destructor).
+struct TempDir(PathBuf, #[allow(dead_code)] crate::atomic::Unfinished);
 
 impl TempDir {
     fn new(tag: &str) -> std::io::Result<TempDir> {
@@ -270,8 +285,9 @@ impl TempDir {
             std::process::id(),
             NEXT.fetch_add(1, Ordering::Relaxed)
         ));
+        let unfinished = crate::atomic::Unfinished::register_dir(&dir);
         std::fs::create_dir_all(&dir)?;
-        Ok(TempDir(dir))
+        Ok(TempDir(dir, unfinished))
     }
 }
 
@@ -507,6 +523,16 @@ impl ProcessLocalizer {
             return Err(LocalizerError::new(f.clone()));
         }
         self.sent += 1;
+        // A line waiting before the message is sent answers nothing: the process answered
+        // some message twice, and each later estimate would be one message stale.
+        if let Some(extra) = self.child.unasked_line() {
+            let problem = Problem::BadAnswer(format!(
+                "it wrote a line no message asked for, before this message was sent: {} \
+                 (exactly one answer line per message; debugging output goes to stderr)",
+                protocol::quote(&extra, 200)
+            ));
+            return Err(LocalizerError::new(self.fail(kind, t, problem)));
+        }
         let answer = match self.child.request(line, self.timeout) {
             Ok(a) => a,
             Err(f) => {
@@ -661,13 +687,31 @@ impl ProcessLocalizer {
         if self.log.is_some() {
             return;
         }
+        let mut log = String::new();
         if self.failed.is_none() {
             self.child.send(Message::Bye.to_line());
             self.child.finish(BYE_GRACE);
+            // Answers beyond one per message, found only once its stdout ended: every
+            // estimate from the first of them on was one message stale.
+            let extra = self.child.unasked_lines_at_end(BYE_GRACE);
+            if extra > 0 {
+                let w = format!(
+                    "localizer {:?}: process `{}` wrote {extra} answer line(s) more than the {} \
+                     messages it was sent: from the first extra one on, every estimate was \
+                     one message stale. Answer each message exactly once (give \"t\" in \
+                     estimates and Atrium checks it), and print debugging output to stderr",
+                    self.name,
+                    self.display,
+                    self.sent.saturating_sub(1)
+                );
+                eprintln!("warning: {w}");
+                log = format!("[atrium] warning: {w}\n");
+            }
         } else {
             self.child.kill();
         }
-        self.log = Some(self.child.stderr().text());
+        log.push_str(&self.child.stderr().text());
+        self.log = Some(log);
     }
 }
 

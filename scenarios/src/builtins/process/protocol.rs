@@ -252,7 +252,11 @@ pub fn parse_answer(line: &[u8]) -> Result<Answer, String> {
                     quote(line, 200)
                 )
             } else {
-                format!("malformed JSON ({e}): {}", quote(line, 200))
+                format!(
+                    "malformed JSON ({e}): {} (stdout carries answers only, one JSON line per \
+                     message; print debugging output to stderr, which Atrium keeps in the log)",
+                    quote(line, 200)
+                )
             });
         }
     };
@@ -345,6 +349,16 @@ fn covariance(obj: &Map<String, Value>) -> Result<Option<Matrix3<f64>>, String> 
         None | Some(Value::Null) => Ok(None),
         Some(c) => {
             let c = numbers(c, 9, "covariance")?;
+            // A negative variance is no covariance (NEES would be undefined, silently).
+            for (i, name) in [(0, "x"), (4, "y"), (8, "theta")] {
+                if c[i] < 0.0 {
+                    return Err(format!(
+                        "covariance[{i}] (the variance of {name}) is negative ({}): a \
+                         covariance's diagonal must be >= 0",
+                        c[i]
+                    ));
+                }
+            }
             Ok(Some(Matrix3::from_row_slice(&c)))
         }
     }
@@ -379,6 +393,15 @@ mod tests {
         let e = parse_answer(b"hello there").unwrap_err();
         assert!(
             e.contains("malformed JSON") && e.contains("hello there"),
+            "{e}"
+        );
+        assert!(e.contains("print debugging output to stderr"), "{e}");
+        let e = parse_answer(
+            br#"{"type":"estimate","pose":[0,0,0],"covariance":[1,0,0,0,-2,0,0,0,3]}"#,
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("covariance[4] (the variance of y) is negative"),
             "{e}"
         );
         let e = parse_answer(br#"{"type":"estimate","pose":[NaN,0,0]}"#).unwrap_err();

@@ -432,6 +432,21 @@ fn bad_tables_name_the_field() {
             "must be a string",
         ),
         (
+            "command = [\"sh\"]\nenv = { \"A=B\" = \"c\" }",
+            "localizers[p].env.\"A=B\"",
+            "not a valid environment variable name",
+        ),
+        (
+            "command = [\"sh\"]\nenv = { \"\" = \"c\" }",
+            "localizers[p].env.\"\"",
+            "not a valid environment variable name",
+        ),
+        (
+            "command = [\"sh\"]\nenv = { A = \"x\\u0000y\" }",
+            "localizers[p].env.A",
+            "NUL",
+        ),
+        (
             "command = [\"sh\"]\ncwd = \"nowhere\"",
             "localizers[p].cwd",
             "is not a folder",
@@ -737,4 +752,88 @@ fn messages_match_their_schemas() {
     let s = schema("estimate");
     validate(&s, &s, &bad, "estimate", &mut errors);
     assert!(!errors.is_empty());
+}
+
+/// Issue 45: a process that answers one message twice (no `t`, so no stamp check catches it)
+/// is refused mid-run when the extra line is already waiting, else warned about at the end
+/// (in its log and on stderr): never silently one message stale.
+#[test]
+fn an_answer_too_many_is_not_silent() {
+    let body = r#"
+    answer({"type": "estimate", "pose": [n, 0, 0]})
+    if n == 1:
+        answer({"type": "estimate", "pose": [100, 0, 0]})
+"#;
+    let hello = r#"{"type": "hello", "protocol": 1}"#;
+    let mut l = build(&python(hello, body, "")).unwrap();
+    let mut failed = None;
+    for k in 1..=4 {
+        let t = 0.02 * k as f64;
+        if let Err(e) = l.predict(&odom(t, 0.0, 0.01)) {
+            failed = Some(e.0);
+            break;
+        }
+    }
+    let log = l.capabilities().and_then(|c| c.log()).unwrap();
+    match failed {
+        Some(err) => assert!(err.contains("a line no message asked for"), "{err}"),
+        None => assert!(
+            log.contains("wrote 1 answer line(s) more than the 4 messages"),
+            "{log}"
+        ),
+    }
+}
+
+/// Whether process `pid` is gone: no such process, a zombie, or SIGKILL pending for it.
+#[cfg(target_os = "linux")]
+fn ended(pid: u32) -> bool {
+    let Ok(status) = std::fs::read_to_string(format!("/proc/{pid}/status")) else {
+        return true;
+    };
+    let field = |name: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))
+            .map(str::trim)
+            .unwrap_or_default()
+            .to_string()
+    };
+    let pending = |name: &str| u64::from_str_radix(&field(name), 16).unwrap_or(0) & (1 << 8) != 0;
+    field("State:").starts_with(['Z', 'X']) || pending("ShdPnd:") || pending("SigPnd:")
+}
+
+/// Issue 45: what a process localizer forks (in its process group) ends with it, whether it
+/// exits by itself after `bye` or is killed on a failure.
+#[cfg(target_os = "linux")]
+#[test]
+fn children_of_the_process_end_with_it() {
+    for fail in [false, true] {
+        let body = r#"
+    if n == 1:
+        import subprocess
+        child = subprocess.Popen(["sleep", "1000"])
+        print("child", child.pid, file=sys.stderr, flush=True)
+    if n == 2:
+        sys.exit(3)
+    answer({"type": "estimate", "pose": [0, 0, 0]})
+"#;
+        let hello = r#"{"type": "hello", "protocol": 1}"#;
+        let mut l = build(&python(hello, body, "")).unwrap();
+        l.predict(&odom(0.02, 0.0, 0.01)).unwrap();
+        if fail {
+            assert!(l.predict(&odom(0.04, 0.01, 0.02)).is_err());
+        }
+        let log = l.capabilities().and_then(|c| c.log()).unwrap();
+        let pid: u32 = log
+            .split("child ")
+            .nth(1)
+            .and_then(|s| s.split_whitespace().next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{log}"));
+        drop(l);
+        assert!(
+            ended(pid),
+            "its child {pid} outlived it (fail: {fail}): {log}"
+        );
+    }
 }

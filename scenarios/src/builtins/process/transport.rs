@@ -138,9 +138,13 @@ pub struct Child {
     child: std::process::Child,
     writer: Option<Sender<Vec<u8>>>,
     events: Receiver<Event>,
+    /// An event taken off `events` by [`Child::unasked_line`] and not yet handled.
+    held: Option<Event>,
     stderr: Arc<StderrLog>,
     /// Set once the process has exited (or been killed and reaped).
     status: Option<ExitStatus>,
+    /// Its process group (it leads one of its own): whatever it forked ends with it.
+    group: crate::atomic::ChildGroup,
 }
 
 impl Child {
@@ -160,12 +164,20 @@ impl Child {
         for (k, v) in env {
             cmd.env(k, v);
         }
+        // Its own process group, so that killing the group ends the children it forks, and a
+        // Ctrl-C in the terminal reaches Atrium alone (whose handler ends the group).
+        #[cfg(unix)]
+        {
+            use std::os::unix::process::CommandExt;
+            cmd.process_group(0);
+        }
         let mut child = cmd.spawn()?;
+        let group = crate::atomic::ChildGroup::register(child.id());
         let (stdin, stdout, stderr) =
             match (child.stdin.take(), child.stdout.take(), child.stderr.take()) {
                 (Some(a), Some(b), Some(c)) => (a, b, c),
                 _ => {
-                    let _ = child.kill();
+                    drop(group);
                     let _ = child.wait();
                     return Err(std::io::Error::other("the process's pipes are missing"));
                 }
@@ -186,8 +198,10 @@ impl Child {
             child,
             writer: Some(writer),
             events,
+            held: None,
             stderr: log,
             status: None,
+            group,
         })
     }
 
@@ -209,6 +223,50 @@ impl Child {
         }
     }
 
+    /// A non-blank line the process wrote that no message asked for, if one is waiting now
+    /// (a process that answers twice would make every later estimate one message stale).
+    /// Other events stay queued for [`Child::request`].
+    pub fn unasked_line(&mut self) -> Option<Vec<u8>> {
+        loop {
+            if self.held.is_some() {
+                return None;
+            }
+            match self.events.try_recv() {
+                Ok(Event::Line(l)) if l.iter().all(u8::is_ascii_whitespace) => continue,
+                Ok(Event::Line(l)) => return Some(l),
+                Ok(other) => {
+                    self.held = Some(other);
+                    return None;
+                }
+                Err(_) => return None,
+            }
+        }
+    }
+
+    /// After the process ended (or closed its stdout): the non-blank lines it wrote that no
+    /// message asked for, waiting up to `timeout` for its stdout to reach its end.
+    pub fn unasked_lines_at_end(&mut self, timeout: Duration) -> usize {
+        let deadline = Instant::now() + timeout;
+        let mut extra = 0;
+        if let Some(e) = self.held.take() {
+            match e {
+                Event::Line(l) if !l.iter().all(u8::is_ascii_whitespace) => extra += 1,
+                Event::Line(_) => {}
+                _ => return extra,
+            }
+        }
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.events.recv_timeout(left) {
+                Ok(Event::Line(l)) if l.iter().all(u8::is_ascii_whitespace) => {}
+                Ok(Event::Line(_)) => extra += 1,
+                // Closed, unreadable, or the stdin writer's report: nothing more to count.
+                Ok(Event::WriteFailed(_)) => {}
+                Ok(_) | Err(_) => return extra,
+            }
+        }
+    }
+
     /// Sends `line` and waits up to `timeout` for the next non-blank line of the process's
     /// stdout. On a failure the process is dead or killed.
     pub fn request(&mut self, line: Vec<u8>, timeout: Duration) -> Result<Vec<u8>, Failure> {
@@ -216,7 +274,11 @@ impl Child {
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.events.recv_timeout(left) {
+            let event = match self.held.take() {
+                Some(e) => Ok(e),
+                None => self.events.recv_timeout(left),
+            };
+            match event {
                 Ok(Event::Line(l)) if l.iter().all(u8::is_ascii_whitespace) => continue,
                 Ok(Event::Line(l)) => return Ok(l),
                 Ok(Event::TooLong) => {
@@ -241,6 +303,7 @@ impl Child {
                     // It may have died just now: say so rather than "timed out".
                     if let Ok(Some(status)) = self.child.try_wait() {
                         self.status = Some(status);
+                        self.group.end();
                         self.stderr.wait_closed(STDERR_DRAIN);
                         return Err(Failure::Gone(describe(status)));
                     }
@@ -270,6 +333,7 @@ impl Child {
         let what = match status {
             Some(s) => {
                 self.status = Some(s);
+                self.group.end();
                 describe(s)
             }
             None => {
@@ -293,6 +357,8 @@ impl Child {
             match self.child.try_wait() {
                 Ok(Some(s)) => {
                     self.status = Some(s);
+                    // Children it left running (holding its stderr open) end with it.
+                    self.group.end();
                     self.stderr.wait_closed(STDERR_DRAIN);
                     return Some(s);
                 }
@@ -307,9 +373,12 @@ impl Child {
         }
     }
 
-    /// Kills the process (if still running) and reaps it.
+    /// Kills the process (if still running) and every process of its group, and reaps it.
     pub fn kill(&mut self) {
         if self.status.is_none() {
+            // The group before the reap: while the leader is unreaped its pid (the group's id)
+            // cannot name another process.
+            self.group.end();
             let _ = self.child.kill();
             self.writer = None;
             if let Ok(s) = self.child.wait() {
@@ -317,6 +386,7 @@ impl Child {
             }
             self.stderr.wait_closed(STDERR_DRAIN);
         }
+        self.group.end();
         self.writer = None;
     }
 }
