@@ -130,6 +130,11 @@ enum Command {
         /// Replace the scenario's seed.
         #[arg(long)]
         seed: Option<u64>,
+        /// `--profile ros2`: also publish `map -> odom` on /tf from the ground truth, for
+        /// viewing a run without a localizer. Off by default, so that the localizer under
+        /// test is the only `map -> odom` publisher when the bag is played (docs/ros2.md).
+        #[arg(long)]
+        tf_ground_truth: bool,
         /// Print one JSON document (the run's report plus the recording's size).
         #[arg(long)]
         json: bool,
@@ -553,17 +558,25 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             output,
             profile,
             seed,
+            tf_ground_truth,
             json,
             no_cache,
         }) => {
             if no_cache {
                 atrium_scenarios::disk_cache::set_enabled(false);
             }
+            if tf_ground_truth && profile != "ros2" {
+                return Err(anyhow::anyhow!(
+                    "--tf-ground-truth: applies to --profile ros2 (a Foxglove recording always has map -> odom on /tf)"
+                )
+                .into());
+            }
             Ok(dataset_cli::record_command(
                 registry,
                 &scenario,
                 &output,
                 profile == "ros2",
+                tf_ground_truth,
                 seed,
                 json,
             )?)

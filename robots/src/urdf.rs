@@ -11,6 +11,7 @@
 
 use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
 use crate::error::RobotError;
+use crate::model::UrdfJoint;
 use crate::model::{
     Caster, DriveKind, ExcludedJoint, LinkMount, RobotModel, Shape, ShapeInstance, SkidSteer,
     TrackSource, Wheel,
@@ -742,6 +743,30 @@ fn origin_pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
         Translation3::new(p.xyz[0], p.xyz[1], p.xyz[2]),
         rpy_rotation(p.rpy.0),
     )
+}
+
+/// Every joint of the URDF `text` as its tree states it (parent, child, origin), in file order,
+/// for the frames a ROS system publishes: `robot_state_publisher` sends the fixed joints on
+/// `/tf_static` and the moving ones from `/joint_states`.
+pub(crate) fn joint_tree(text: &str, source: &str) -> Result<Vec<UrdfJoint>, RobotError> {
+    check_depth(text, source)?;
+    let robot = urdf_rs::read_from_string(text).map_err(|e| RobotError::Invalid {
+        source_name: source.into(),
+        msg: format!("URDF: {e}"),
+    })?;
+    Ok(robot
+        .joints
+        .iter()
+        .map(|j| UrdfJoint {
+            name: j.name.clone(),
+            parent: j.parent.link.clone(),
+            child: j.child.link.clone(),
+            origin: origin_pose(&j.origin),
+            fixed: matches!(j.joint_type, JointType::Fixed),
+            kind: joint_kind(j),
+            axis: j.axis.xyz.0,
+        })
+        .collect())
 }
 
 /// One link placed in the base frame at zero joint positions.
