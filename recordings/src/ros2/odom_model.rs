@@ -251,7 +251,15 @@ mod tests {
         // Twist: 0.5 m/s forward; one tick per wheel bounds vy from below.
         assert!((u.twist[0] - 0.5).abs() < 1e-9 && u.twist[2].abs() < 1e-9);
         assert!(u.twist_covariance[(1, 1)] > 0.0);
-        assert!((u.twist_covariance[(0, 0)].sqrt() - 0.5 * 0.03).abs() < 1e-3);
+        // vx: the scale error (3 % of 0.5 m/s) plus one tick of each wheel over 20 ms, the
+        // difference of two floored counts (variance tick²/6 per wheel), halved twice.
+        let tick = std::f64::consts::TAU * 0.1 / 500.0;
+        let want = (0.03f64 * 0.5).powi(2) + 0.25 * 2.0 * tick * tick / 6.0 / (0.02f64 * 0.02);
+        assert!(
+            (u.twist_covariance[(0, 0)] / want - 1.0).abs() < 1e-6,
+            "{} vs {want}",
+            u.twist_covariance[(0, 0)]
+        );
     }
 
     #[test]
