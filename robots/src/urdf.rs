@@ -1667,6 +1667,8 @@ fn build(
         })
         .collect();
 
+    check_not_mecanum(robot, &drive_kind, &left_wheel, &right_wheel, source)?;
+
     let model = RobotModel {
         name: robot.name.clone(),
         base_link: nodes[0].link.name.clone(),
@@ -1684,6 +1686,77 @@ fn build(
         drive_kind,
     };
     Ok((model, excluded))
+}
+
+/// Refuses a robot whose driven wheels are mecanum or omni wheels (by the wheel link's or
+/// joint's name, or the file name of a mesh it is drawn with, or rollers: revolving joints
+/// hung below the wheel): Atrium drives differential and skid-steer bases, and such a base
+/// run as a skid steer would move in ways the real one never does (issue 42).
+fn check_not_mecanum(
+    robot: &urdf_rs::Robot,
+    drive_kind: &DriveKind,
+    left: &Wheel,
+    right: &Wheel,
+    source: &str,
+) -> Result<(), RobotError> {
+    let wheels: Vec<&Wheel> = match drive_kind {
+        DriveKind::SkidSteer(s) => s.left.iter().chain(&s.right).collect(),
+        DriveKind::Differential => vec![left, right],
+    };
+    let kind_of = |text: &str| {
+        let t = text.to_ascii_lowercase();
+        if t.contains("mecanum") {
+            Some("a mecanum")
+        } else if t.contains("omni") {
+            Some("an omni")
+        } else {
+            None
+        }
+    };
+    for w in wheels {
+        let mut found = kind_of(&w.link)
+            .or_else(|| kind_of(&w.joint))
+            .map(|k| (k, format!("its name ({:?})", w.link)));
+        if found.is_none() {
+            if let Some(link) = robot.links.iter().find(|l| l.name == w.link) {
+                let meshes = link
+                    .visual
+                    .iter()
+                    .map(|v| &v.geometry)
+                    .chain(link.collision.iter().map(|c| &c.geometry));
+                for g in meshes {
+                    if let Geometry::Mesh { filename, .. } = g {
+                        if let Some(k) = kind_of(filename) {
+                            found = Some((k, format!("its mesh {filename:?}")));
+                        }
+                    }
+                }
+            }
+        }
+        if found.is_none() {
+            let rollers = robot
+                .joints
+                .iter()
+                .filter(|j| j.parent.link == w.link && is_revolving(j))
+                .count();
+            if rollers >= 3 {
+                found = Some((
+                    "a mecanum or omni",
+                    format!("the {rollers} rollers jointed to it"),
+                ));
+            }
+        }
+        if let Some((kind, why)) = found {
+            return Err(invalid(
+                source,
+                format!(
+                    "the driven wheel {:?} (joint {:?}) is {kind} wheel, by {why}: Atrium simulates differential-drive and skid-steer robots, and would drive this one as a skid steer, which it is not; describe it with plain wheels to run it as such",
+                    w.link, w.joint
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses links and shapes that, though each `<origin>` and size is within
@@ -1722,6 +1795,31 @@ fn check_reach(nodes: &[Node], geometry: &[LinkGeometry], source: &str) -> Resul
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn mecanum_and_omni_wheels_are_refused_not_run_as_skid_steer() {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/pioneer3dx.urdf"))
+                .unwrap();
+        assert!(load_str(&text, "p3dx").is_ok());
+        let e = load_str(
+            &text.replace("\"left_wheel\"", "\"left_mecanum_wheel\""),
+            "m",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("\"left_mecanum_wheel\"") && e.contains("is a mecanum wheel"),
+            "{e}"
+        );
+        let e = load_str(
+            &text.replace("\"right_wheel\"", "\"right_omni_wheel\""),
+            "o",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("is an omni wheel"), "{e}");
+    }
+
     use super::*;
     use std::f64::consts::FRAC_PI_2;
 
