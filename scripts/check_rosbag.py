@@ -9,16 +9,22 @@ Checks, each failure naming the topic:
   alignment and padding are what ROS 2 produces);
 - every standard type's schema in the bag defines the same fields as the Humble type store;
 - message counts equal metadata.yaml's; TOPIC=MIN_COUNT minimums;
-- REP 105 frames: /odom in `odom` with the base link as child, /tf carrying odom -> base and
-  map -> odom, every sensor frame (scan, image headers) in /tf_static, ground truth and
-  estimates in `map`; /map, /tf_static and /robot_description offered transient local;
+- REP 105 frames: /odom in `odom` with the base link as child, /tf carrying odom -> base only
+  (map -> odom too with --tf-ground-truth, the bag recorded with that flag), every sensor
+  frame (scan, image headers) in /tf_static, each child frame with one parent there, ground
+  truth (nav_msgs/Odometry, child the base link) and estimates in `map`; /map, /tf_static and
+  /robot_description offered transient local;
+- with --doc docs/ros2.md: every row of the walk-through's table (topic, type, frame, child
+  frame, durability) and its promises: /odom twist and covariances, +Inf no-return beams with
+  scan_time and time_increment, unknown cells in /map, the wheel joints on /joint_states;
 - with --foxglove FILE.mcap (read with `mcap` + `mcap-protobuf-support`): per topic the same
   number of messages at the same times, and equal field values: laser ranges (float32 of the
   Foxglove float64, and the exact float64 side channel bit for bit), odometry, ground-truth
   and estimate poses, depth/intensity/disparity pixels, WiFi scans, landmark detections,
   wheel ticks, scoring instants and /tf transforms.
 
-Usage: python check_rosbag.py BAG_DIR [--foxglove FILE.mcap] [TOPIC=MIN_COUNT ...]
+Usage: python check_rosbag.py BAG_DIR [--foxglove FILE.mcap] [--doc docs/ros2.md]
+       [--tf-ground-truth] [TOPIC=MIN_COUNT ...]
 """
 
 import json
@@ -89,7 +95,7 @@ def read_bag(path):
     return messages, types
 
 
-def check_frames(messages, types):
+def check_frames(messages, types, tf_ground_truth=False):
     base = None
     for _, m in messages.get("/odom", []):
         if m.header.frame_id != "odom":
@@ -98,9 +104,19 @@ def check_frames(messages, types):
     if base is None:
         fail("/odom", "no messages")
     pairs = {(t.header.frame_id, t.child_frame_id) for _, m in messages.get("/tf", []) for t in m.transforms}
-    for want in (("odom", base), ("map", "odom")):
-        if want not in pairs:
-            fail("/tf", f"no transform {want[0]} -> {want[1]} (has {sorted(pairs)})")
+    if ("odom", base) not in pairs:
+        fail("/tf", f"no transform odom -> {base} (has {sorted(pairs)})")
+    if (("map", "odom") in pairs) != tf_ground_truth:
+        fail("/tf", f"map -> odom {'missing' if tf_ground_truth else 'present: the localizer under test publishes it'} (has {sorted(pairs)})")
+    if tf_ground_truth and pairs != {("odom", base), ("map", "odom")}:
+        fail("/tf", f"transforms other than odom -> base and map -> odom: {sorted(pairs)}")
+    if not tf_ground_truth and pairs != {("odom", base)}:
+        fail("/tf", f"transforms other than odom -> {base}: {sorted(pairs)}")
+    parent_of = {}
+    for _, m in messages.get("/tf_static", []):
+        for t in m.transforms:
+            if parent_of.setdefault(t.child_frame_id, t.header.frame_id) != t.header.frame_id:
+                fail("/tf_static", f"frame {t.child_frame_id!r} has two parents: {parent_of[t.child_frame_id]!r} and {t.header.frame_id!r}")
     static = {t.child_frame_id for _, m in messages.get("/tf_static", []) for t in m.transforms}
     parents = {t.header.frame_id for _, m in messages.get("/tf_static", []) for t in m.transforms}
     if not static:
@@ -114,6 +130,12 @@ def check_frames(messages, types):
             for _, m in messages[topic]:
                 if m.header.frame_id != "map":
                     fail(topic, f"frame {m.header.frame_id!r}, expected 'map'")
+        if topic == "/ground_truth":
+            if msgtype != "nav_msgs/msg/Odometry":
+                fail(topic, f"type {msgtype}, expected nav_msgs/msg/Odometry")
+            for _, m in messages[topic]:
+                if m.child_frame_id != base:
+                    fail(topic, f"child frame {m.child_frame_id!r}, expected {base!r}")
     if base not in parents:
         fail("/tf_static", f"no transform from the base link {base!r}")
     urdf = messages.get("/robot_description", [(0, None)])[0][1]
@@ -178,7 +200,9 @@ def compare(messages, types, fox):
             exact = messages.get("/atrium/ranges/" + topic[len("/scan/"):], [])
             same_times("/atrium/ranges/" + topic[len("/scan/"):], exact, fox[topic])
             for (t, m), (_, f), (_, e) in zip(ros, fox[topic], exact):
-                equal(topic, t, "ranges (float32)", m.ranges.tolist(), as_f32(list(f.ranges)))
+                # REP 117: a beam with no return (range_max in the Foxglove recording) is +Inf.
+                short = [math.inf if r >= float(m.range_max) else r for r in as_f32(list(f.ranges))]
+                equal(topic, t, "ranges (float32)", m.ranges.tolist(), short)
                 equal(topic, t, "exact ranges", e.ranges.tolist(), list(f.ranges))
                 equal(topic, t, "frame", m.header.frame_id, f.frame_id)
                 equal(topic, t, "angle_min", float(m.angle_min), as_f32([f.start_angle])[0])
@@ -214,17 +238,89 @@ def compare(messages, types, fox):
                 there = [(d["range"], d["bearing"], d.get("id")) for d in f["detections"]]
                 equal(topic, t, "detections", here, there)
         elif topic == "/tf":
-            # The Foxglove /tf also holds the static frames; compare the per-reading ones.
-            dynamic = [(t, f) for t, f in fox[topic] if any(x.parent_frame_id in ("odom", "map") for x in f.transforms)]
+            # The Foxglove /tf also holds the static frames and map -> odom; compare odom ->
+            # base, the per-reading transform both carry.
+            dynamic = [(t, f) for t, f in fox[topic] if any(x.parent_frame_id == "odom" for x in f.transforms)]
             same_times(topic, ros, dynamic)
             for (t, m), (_, f) in zip(ros, dynamic):
-                here = [(x.header.frame_id, x.child_frame_id, x.transform.translation.x, x.transform.translation.y, x.transform.rotation.z, x.transform.rotation.w) for x in m.transforms]
-                there = [(x.parent_frame_id, x.child_frame_id, x.translation.x, x.translation.y, x.rotation.z, x.rotation.w) for x in f.transforms]
+                here = [(x.header.frame_id, x.child_frame_id, x.transform.translation.x, x.transform.translation.y, x.transform.rotation.z, x.transform.rotation.w) for x in m.transforms if x.header.frame_id == "odom"]
+                there = [(x.parent_frame_id, x.child_frame_id, x.translation.x, x.translation.y, x.rotation.z, x.rotation.w) for x in f.transforms if x.parent_frame_id == "odom"]
                 equal(topic, t, "transforms", here, there)
         else:
             continue
         compared[topic] = len(ros)
     return compared
+
+
+DURABILITY = {"transient local": QosDurability.TRANSIENT_LOCAL, "volatile": QosDurability.VOLATILE}
+
+
+def doc_rows(doc):
+    """The table under "## What this walk-through relies on" in docs/ros2.md."""
+    text = Path(doc).read_text()
+    section = text.split("## What this walk-through relies on", 1)
+    if len(section) != 2:
+        raise Failed(f"{doc}: no section 'What this walk-through relies on'")
+    rows = []
+    for line in section[1].splitlines():
+        if line.startswith("| `/"):
+            cells = [c.strip().strip("`") for c in line.strip().strip("|").split("|")]
+            if len(cells) != 5:
+                raise Failed(f"{doc}: row {line!r} has {len(cells)} cells, expected 5")
+            rows.append(cells)
+    if len(rows) < 8:
+        raise Failed(f"{doc}: {len(rows)} rows in the table")
+    return rows
+
+
+def check_doc(path, doc, messages, types):
+    """Every row and promise of the walk-through, read with rosbags."""
+    qos = {}
+    with Reader(path) as reader:
+        for conn in reader.connections:
+            qos[conn.topic] = [q.durability for q in conn.ext.offered_qos_profiles]
+    for topic, msgtype, frame, child, durability in doc_rows(doc):
+        if topic not in types:
+            fail(topic, f"named in {doc} but not in the bag")
+        if types[topic] != msgtype:
+            fail(topic, f"type {types[topic]}, {doc} says {msgtype}")
+        if not qos[topic] or any(d != DURABILITY[durability] for d in qos[topic]):
+            fail(topic, f"offered durability {qos[topic]}, {doc} says {durability}")
+        msgs = [m for _, m in messages[topic]]
+        if msgtype == "tf2_msgs/msg/TFMessage":
+            if not any(t.header.frame_id == frame and t.child_frame_id == child for m in msgs for t in m.transforms):
+                fail(topic, f"no transform {frame} -> {child}, which {doc} relies on")
+        elif frame:
+            for m in msgs:
+                if m.header.frame_id != frame or (child and m.child_frame_id != child):
+                    fail(topic, f"frames {m.header.frame_id!r} / {getattr(m, 'child_frame_id', None)!r}, {doc} says {frame!r} / {child!r}")
+    odom = [m for _, m in messages["/odom"]]
+    if not any(abs(m.twist.twist.linear.x) > 0.05 for m in odom):
+        fail("/odom", "the twist is zero in every message")
+    for k, m in enumerate(odom[1:], 1):
+        pc, tc = m.pose.covariance, m.twist.covariance
+        if not (tc[0] > 0 and tc[35] > 0 and pc[0] >= 0 and pc[35] >= 0):
+            fail("/odom", f"message {k}: covariances {pc.tolist()} / {tc.tolist()}")
+    if not (odom[-1].pose.covariance[0] > 0 and odom[-1].pose.covariance[35] > 0):
+        fail("/odom", "the pose covariance did not grow over the drive")
+    for topic, msgtype in types.items():
+        if msgtype != "sensor_msgs/msg/LaserScan":
+            continue
+        scans = [m for _, m in messages[topic]]
+        if not any(math.isinf(r) and r > 0 for m in scans for r in m.ranges.tolist()):
+            fail(topic, "no +Inf beam (REP 117)")
+        for m in scans:
+            if not (0 < m.range_min < m.range_max and m.scan_time > 0 and m.time_increment > 0):
+                fail(topic, f"range_min {m.range_min}, range_max {m.range_max}, scan_time {m.scan_time}, time_increment {m.time_increment}")
+            if any(r >= m.range_max and not math.isinf(r) for r in m.ranges.tolist()):
+                fail(topic, "a beam at range_max instead of +Inf")
+    grid = messages["/map"][0][1]
+    if -1 not in set(int(v) for v in set(grid.data.tolist())):
+        fail("/map", "no unknown (-1) cells")
+    names = set(messages["/joint_states"][-1][1].name)
+    for joint in ("left_wheel_joint", "right_wheel_joint"):
+        if joint not in names:
+            fail("/joint_states", f"no {joint} (has {sorted(names)})")
 
 
 def main() -> int:
@@ -234,16 +330,25 @@ def main() -> int:
         return 2
     path = Path(args.pop(0))
     foxglove = None
-    if args[:1] == ["--foxglove"]:
-        foxglove = args[1]
-        args = args[2:]
+    doc = None
+    tf_ground_truth = False
     minimum = {}
-    for arg in args:
-        topic, count = arg.rsplit("=", 1)
-        minimum[topic] = int(count)
+    while args:
+        arg = args.pop(0)
+        if arg == "--foxglove":
+            foxglove = args.pop(0)
+        elif arg == "--doc":
+            doc = args.pop(0)
+        elif arg == "--tf-ground-truth":
+            tf_ground_truth = True
+        else:
+            topic, count = arg.rsplit("=", 1)
+            minimum[topic] = int(count)
     try:
         messages, types = read_bag(path)
-        base = check_frames(messages, types)
+        base = check_frames(messages, types, tf_ground_truth)
+        if doc:
+            check_doc(path, doc, messages, types)
         for topic, need in minimum.items():
             if len(messages.get(topic, [])) < need:
                 fail(topic, f"{len(messages.get(topic, []))} messages, expected at least {need}")

@@ -19,7 +19,8 @@ fn progress_bar(show: bool, name: &str) -> Option<indicatif::ProgressBar> {
     })
 }
 
-/// `atrium record SCENARIO -o FILE.mcap [--profile foxglove|ros2] [--seed N] [--json]`: runs
+/// `atrium record SCENARIO -o FILE.mcap [--profile foxglove|ros2] [--tf-ground-truth] [--seed N]
+/// [--json]`: runs
 /// the scenario live, writes the recording, prints the run's report (the same as
 /// `atrium run`). The output is checked before the run (`dataset::record::check_output`, or
 /// `dataset::ros2::record::check_output` for a bag folder); it is written as
@@ -29,6 +30,7 @@ pub fn record_command(
     scenario_path: &Path,
     output: &Path,
     ros2: bool,
+    tf_ground_truth: bool,
     seed: Option<u64>,
     json: bool,
 ) -> anyhow::Result<bool> {
@@ -50,7 +52,13 @@ pub fn record_command(
         observer: None,
     };
     let rec = if ros2 {
-        dataset::ros2::record_ros2(registry, &scenario, output, options)?
+        dataset::ros2::record_ros2_with(
+            registry,
+            &scenario,
+            output,
+            options,
+            dataset::ros2::Ros2Options { tf_ground_truth },
+        )?
     } else {
         record(registry, &scenario, output, options)?
     };
@@ -148,7 +156,7 @@ pub fn replay_command(
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let r = r.map_err(|e| crate::keep_failed_run(e, out.as_deref(), json))?;
+    let r = r.map_err(|e| crate::failed_run::keep_failed_run(e, out.as_deref(), json))?;
     if let Some(dir) = &out {
         let written =
             output::write_run(dir, &r.scenario.world, &r.run).map_err(anyhow::Error::msg)?;

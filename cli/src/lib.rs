@@ -13,6 +13,7 @@
 //! ```
 
 mod dataset_cli;
+mod failed_run;
 mod generate_cli;
 mod map_cli;
 mod realism_cli;
@@ -137,6 +138,11 @@ enum Command {
         /// Replace the scenario's seed.
         #[arg(long)]
         seed: Option<u64>,
+        /// `--profile ros2`: also publish `map -> odom` on /tf from the ground truth, for
+        /// viewing a run without a localizer. Off by default, so that the localizer under
+        /// test is the only `map -> odom` publisher when the bag is played (docs/ros2.md).
+        #[arg(long)]
+        tf_ground_truth: bool,
         /// Print one JSON document (the run's report plus the recording's size).
         #[arg(long)]
         json: bool,
@@ -507,7 +513,7 @@ fn run(
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let result = result.map_err(|e| keep_failed_run(e, out.as_deref(), json))?;
+    let result = result.map_err(|e| failed_run::keep_failed_run(e, out.as_deref(), json))?;
     if let Some(dir) = &out {
         let written =
             output::write_run(dir, &scenario.world, &result).map_err(anyhow::Error::msg)?;
@@ -688,33 +694,6 @@ fn check_report(
     Ok(())
 }
 
-/// A run that failed keeps what is known: the localizers' logs and the error under `--out`
-/// (the failed process localizer's stderr is what explains it), and a `--json` document.
-fn keep_failed_run(
-    e: atrium_scenarios::ScenarioError,
-    out: Option<&std::path::Path>,
-    json: bool,
-) -> anyhow::Error {
-    // Bad input found before the run (a bad table, a missing program) leaves no trace.
-    if !matches!(e, atrium_scenarios::ScenarioError::Localizer { .. }) {
-        return e.into();
-    }
-    if let Some(dir) = out {
-        match output::write_failed_run(dir, &e) {
-            Ok(written) => {
-                for p in written {
-                    eprintln!("kept {}", p.display());
-                }
-            }
-            Err(w) => eprintln!("warning: could not keep the failed run's logs: {w}"),
-        }
-    }
-    if json {
-        let _ = print_json(&output::failed_run_json(&e));
-    }
-    e.into()
-}
-
 fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> {
     // A bad cache cap is refused before anything runs, not found out at the first store.
     atrium_scenarios::disk_cache::max_bytes_from_env().map_err(|e| BadInput(anyhow::anyhow!(e)))?;
@@ -858,17 +837,25 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
             output,
             profile,
             seed,
+            tf_ground_truth,
             json,
             no_cache,
         }) => {
             if no_cache {
                 atrium_scenarios::disk_cache::set_enabled(false);
             }
+            if tf_ground_truth && profile != "ros2" {
+                return Err(anyhow::anyhow!(
+                    "--tf-ground-truth: applies to --profile ros2 (a Foxglove recording always has map -> odom on /tf)"
+                )
+                .into());
+            }
             Ok(dataset_cli::record_command(
                 registry,
                 &scenario,
                 &output,
                 profile == "ros2",
+                tf_ground_truth,
                 seed,
                 json,
             )?)

@@ -626,7 +626,7 @@ fn exported_occupancy_map_matches_the_free_space() {
             seen.walls.retain(|wall| !world.is_glass(&wall.material));
         }
         let half_diag = res * std::f64::consts::FRAC_1_SQRT_2;
-        let (mut free, mut occupied) = (0, 0);
+        let (mut free, mut occupied, mut unknown) = (0, 0, 0);
         for row in 0..h {
             for i in 0..w {
                 // PGM rows run top (largest y) to bottom.
@@ -639,15 +639,30 @@ fn exported_occupancy_map_matches_the_free_space() {
                 assert!(v == 254 || v == 0 || v == 205);
                 let clearance = seen.clearance(c);
                 if clearance > half_diag {
-                    assert_eq!(v, 254, "cell {c:?} is free space");
-                    free += 1;
+                    // Free space: inside the building free (254), outside it unknown (205).
+                    assert!(v == 254 || v == 205, "cell {c:?} is free space: {v}");
+                    if v == 254 {
+                        free += 1;
+                    } else {
+                        unknown += 1;
+                    }
                 } else if clearance < 0.0 {
                     assert_eq!(v, 0, "cell {c:?} lies in a solid");
                     occupied += 1;
                 }
             }
         }
-        assert!(free > 10_000 && occupied > 1_000, "{free} {occupied}");
+        assert!(
+            free > 10_000 && occupied > 1_000 && unknown > 1_000,
+            "{free} {occupied} {unknown}"
+        );
+        // The map's corner is outside the building; the corridor at (2, 20) inside it.
+        assert_eq!(pixels[0], 205);
+        let (i, j) = (
+            ((2.0 - origin[0]) / res) as usize,
+            ((20.0 - origin[1]) / res) as usize,
+        );
+        assert_eq!(pixels[(h - 1 - j) * w + i], 254);
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

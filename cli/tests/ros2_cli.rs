@@ -75,6 +75,38 @@ fn record_ros2_then_replay_gives_the_recorded_report() {
         "ros1",
     ]);
     assert_eq!(o.status.code(), Some(2));
+    // --tf-ground-truth is for bags (a Foxglove recording always has map -> odom).
+    let o = atrium(&[
+        "record",
+        scenario.to_str().unwrap(),
+        "-o",
+        dir.join("gt.mcap").to_str().unwrap(),
+        "--tf-ground-truth",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--tf-ground-truth") && err.contains("--profile ros2"),
+        "{err}"
+    );
+    let gt = dir.join("gt");
+    let o = atrium(&[
+        "record",
+        scenario.to_str().unwrap(),
+        "-o",
+        gt.to_str().unwrap(),
+        "--profile",
+        "ros2",
+        "--tf-ground-truth",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mcap_bytes = std::fs::read(gt.join("gt_0.mcap")).unwrap();
+    let map_to_odom = mcap::MessageStream::new(&mcap_bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .filter(|m| m.channel.topic == "/tf")
+        .any(|m| m.data.windows(4).any(|w| w == b"map\0"));
+    assert!(map_to_odom, "the bag's /tf has no map -> odom");
 
     // A folder without metadata.yaml, and a bag with an unknown type: exit 2, named.
     let empty = dir.join("empty");

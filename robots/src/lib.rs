@@ -24,7 +24,8 @@ pub use generic::generic_robot_urdf;
 pub use images::{DisparityImage, IntensityImage};
 pub use landmark_detector::{Association, LandmarkDetectorSpec};
 pub use model::{
-    Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, Wheel,
+    Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, UrdfJoint,
+    Wheel,
 };
 pub use pose::{normalize_angle, Mount3, Pose2};
 pub use readings::{

@@ -68,6 +68,22 @@ impl LinkMount {
     }
 }
 
+/// One joint of a URDF's tree, as written (see [`RobotModel::joint_tree`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfJoint {
+    pub name: String,
+    pub parent: String,
+    pub child: String,
+    /// The joint's `<origin>`: the child frame in the parent frame at joint position zero.
+    pub origin: Isometry3<f64>,
+    /// A fixed joint (its transform never changes: `/tf_static`); else it moves (`/joint_states`).
+    pub fixed: bool,
+    /// The URDF joint type (`fixed`, `continuous`, `revolute`, ...).
+    pub kind: &'static str,
+    /// The joint axis in the child frame, as written (`[1, 0, 0]` when omitted).
+    pub axis: [f64; 3],
+}
+
 /// A revolving (continuous or revolute) URDF joint that the loader did not make one of the two
 /// drive wheels, and why (its axis is not lateral, it is a caster by name or sits below a
 /// swivel, or its link has no round geometry).

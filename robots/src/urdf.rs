@@ -11,6 +11,7 @@
 
 use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
 use crate::error::RobotError;
+use crate::model::UrdfJoint;
 use crate::model::{
     Caster, DriveKind, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance,
     SkidSteer, TrackSource, Wheel,
@@ -742,6 +743,30 @@ fn origin_pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
         Translation3::new(p.xyz[0], p.xyz[1], p.xyz[2]),
         rpy_rotation(p.rpy.0),
     )
+}
+
+/// Every joint of the URDF `text` as its tree states it (parent, child, origin), in file order,
+/// for the frames a ROS system publishes: `robot_state_publisher` sends the fixed joints on
+/// `/tf_static` and the moving ones from `/joint_states`.
+pub(crate) fn joint_tree(text: &str, source: &str) -> Result<Vec<UrdfJoint>, RobotError> {
+    check_depth(text, source)?;
+    let robot = urdf_rs::read_from_string(text).map_err(|e| RobotError::Invalid {
+        source_name: source.into(),
+        msg: format!("URDF: {e}"),
+    })?;
+    Ok(robot
+        .joints
+        .iter()
+        .map(|j| UrdfJoint {
+            name: j.name.clone(),
+            parent: j.parent.link.clone(),
+            child: j.child.link.clone(),
+            origin: origin_pose(&j.origin),
+            fixed: matches!(j.joint_type, JointType::Fixed),
+            kind: joint_kind(j),
+            axis: j.axis.xyz.0,
+        })
+        .collect())
 }
 
 /// One link placed in the base frame at zero joint positions.
@@ -1642,6 +1667,8 @@ fn build(
         })
         .collect();
 
+    check_not_mecanum(robot, &drive_kind, &left_wheel, &right_wheel, source)?;
+
     let model = RobotModel {
         name: robot.name.clone(),
         base_link: nodes[0].link.name.clone(),
@@ -1659,6 +1686,77 @@ fn build(
         drive_kind,
     };
     Ok((model, excluded))
+}
+
+/// Refuses a robot whose driven wheels are mecanum or omni wheels (by the wheel link's or
+/// joint's name, or the file name of a mesh it is drawn with, or rollers: revolving joints
+/// hung below the wheel): Atrium drives differential and skid-steer bases, and such a base
+/// run as a skid steer would move in ways the real one never does (issue 42).
+fn check_not_mecanum(
+    robot: &urdf_rs::Robot,
+    drive_kind: &DriveKind,
+    left: &Wheel,
+    right: &Wheel,
+    source: &str,
+) -> Result<(), RobotError> {
+    let wheels: Vec<&Wheel> = match drive_kind {
+        DriveKind::SkidSteer(s) => s.left.iter().chain(&s.right).collect(),
+        DriveKind::Differential => vec![left, right],
+    };
+    let kind_of = |text: &str| {
+        let t = text.to_ascii_lowercase();
+        if t.contains("mecanum") {
+            Some("a mecanum")
+        } else if t.contains("omni") {
+            Some("an omni")
+        } else {
+            None
+        }
+    };
+    for w in wheels {
+        let mut found = kind_of(&w.link)
+            .or_else(|| kind_of(&w.joint))
+            .map(|k| (k, format!("its name ({:?})", w.link)));
+        if found.is_none() {
+            if let Some(link) = robot.links.iter().find(|l| l.name == w.link) {
+                let meshes = link
+                    .visual
+                    .iter()
+                    .map(|v| &v.geometry)
+                    .chain(link.collision.iter().map(|c| &c.geometry));
+                for g in meshes {
+                    if let Geometry::Mesh { filename, .. } = g {
+                        if let Some(k) = kind_of(filename) {
+                            found = Some((k, format!("its mesh {filename:?}")));
+                        }
+                    }
+                }
+            }
+        }
+        if found.is_none() {
+            let rollers = robot
+                .joints
+                .iter()
+                .filter(|j| j.parent.link == w.link && is_revolving(j))
+                .count();
+            if rollers >= 3 {
+                found = Some((
+                    "a mecanum or omni",
+                    format!("the {rollers} rollers jointed to it"),
+                ));
+            }
+        }
+        if let Some((kind, why)) = found {
+            return Err(invalid(
+                source,
+                format!(
+                    "the driven wheel {:?} (joint {:?}) is {kind} wheel, by {why}: Atrium simulates differential-drive and skid-steer robots, and would drive this one as a skid steer, which it is not; describe it with plain wheels to run it as such",
+                    w.link, w.joint
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses links and shapes that, though each `<origin>` and size is within
@@ -1701,6 +1799,12 @@ impl RobotModel {
         load_file(path)
     }
 
+    /// Every joint of URDF `text` with its parent, child and origin, in file order (the tree
+    /// `robot_state_publisher` builds from the same text). `source` names it in errors.
+    pub fn joint_tree(text: &str, source: &str) -> Result<Vec<UrdfJoint>, RobotError> {
+        joint_tree(text, source)
+    }
+
     /// Parses URDF text; `source` names it in error messages.
     pub fn from_urdf_str(text: &str, source: &str) -> Result<Self, RobotError> {
         load_str(text, source)
@@ -1728,6 +1832,31 @@ impl RobotModel {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn mecanum_and_omni_wheels_are_refused_not_run_as_skid_steer() {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/pioneer3dx.urdf"))
+                .unwrap();
+        assert!(load_str(&text, "p3dx").is_ok());
+        let e = load_str(
+            &text.replace("\"left_wheel\"", "\"left_mecanum_wheel\""),
+            "m",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("\"left_mecanum_wheel\"") && e.contains("is a mecanum wheel"),
+            "{e}"
+        );
+        let e = load_str(
+            &text.replace("\"right_wheel\"", "\"right_omni_wheel\""),
+            "o",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("is an omni wheel"), "{e}");
+    }
+
     use super::*;
     use std::f64::consts::FRAC_PI_2;
 

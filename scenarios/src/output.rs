@@ -192,9 +192,11 @@ pub fn export_map(
             output.display()
         )),
         "ros" => {
-            let grid = world
+            let mut grid = world
                 .try_occupancy_grid(resolution, include_glass)
                 .map_err(|e| format!("--resolution: {e}"))?;
+            // Outside the building: unknown (205 in the PGM), as the help text says.
+            grid.mark_outside_unknown(&[]);
             let pgm = output.with_extension("pgm");
             let image = pgm
                 .file_name()

@@ -261,6 +261,69 @@ impl World {
 }
 
 impl OccupancyGrid {
+    /// Marks Unknown every Free cell outside the building: those a 4-connected walk over Free
+    /// cells reaches from the grid's border (its margin lies outside every wall). When that
+    /// walk reaches one of the `inside` points (the building is open to the outside, so the
+    /// walk entered it), nothing is marked. Returns how many cells became Unknown.
+    pub fn mark_outside_unknown(&mut self, inside: &[P2]) -> usize {
+        let (w, h) = (self.width, self.height);
+        if w == 0 || h == 0 {
+            return 0;
+        }
+        let mut outside = vec![false; w * h];
+        let mut stack = Vec::new();
+        let visit = |i: usize, j: usize, outside: &mut Vec<bool>, stack: &mut Vec<usize>| {
+            let k = j * w + i;
+            if !outside[k] && self.cells[k] == Cell::Free {
+                outside[k] = true;
+                stack.push(k);
+            }
+        };
+        for i in 0..w {
+            visit(i, 0, &mut outside, &mut stack);
+            visit(i, h - 1, &mut outside, &mut stack);
+        }
+        for j in 0..h {
+            visit(0, j, &mut outside, &mut stack);
+            visit(w - 1, j, &mut outside, &mut stack);
+        }
+        while let Some(k) = stack.pop() {
+            let (i, j) = (k % w, k / w);
+            if i > 0 {
+                visit(i - 1, j, &mut outside, &mut stack);
+            }
+            if i + 1 < w {
+                visit(i + 1, j, &mut outside, &mut stack);
+            }
+            if j > 0 {
+                visit(i, j - 1, &mut outside, &mut stack);
+            }
+            if j + 1 < h {
+                visit(i, j + 1, &mut outside, &mut stack);
+            }
+        }
+        let reached_inside = inside.iter().any(|&p| {
+            let i = ((p[0] - self.origin[0]) / self.resolution).floor();
+            let j = ((p[1] - self.origin[1]) / self.resolution).floor();
+            i >= 0.0
+                && j >= 0.0
+                && (i as usize) < w
+                && (j as usize) < h
+                && outside[j as usize * w + i as usize]
+        });
+        if reached_inside {
+            return 0;
+        }
+        let mut n = 0;
+        for (c, o) in self.cells.iter_mut().zip(&outside) {
+            if *o {
+                *c = Cell::Unknown;
+                n += 1;
+            }
+        }
+        n
+    }
+
     /// Marks Occupied every cell overlapping the box `[bmin, bmax]` for which
     /// `hit(centre, cell_min, cell_max)` holds.
     fn mark(&mut self, bmin: P2, bmax: P2, hit: impl Fn(P2, P2, P2) -> bool) {

@@ -125,6 +125,11 @@ const DEFS: &[(&str, &str, &[&str])] = &[
         &["std_msgs/msg/Header", "sensor_msgs/msg/RegionOfInterest"],
     ),
     (
+        "sensor_msgs/msg/JointState",
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n",
+        &["std_msgs/msg/Header"],
+    ),
+    (
         "atrium_msgs/msg/WifiReading",
         "string ap\nuint32 channel\nfloat64 rssi_dbm\n",
         &[],
@@ -170,6 +175,7 @@ pub const OCCUPANCY_GRID: &str = "nav_msgs/msg/OccupancyGrid";
 pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
 pub const IMAGE: &str = "sensor_msgs/msg/Image";
 pub const CAMERA_INFO: &str = "sensor_msgs/msg/CameraInfo";
+pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 pub const WIFI_SCAN: &str = "atrium_msgs/msg/WifiScan";
 pub const LANDMARKS: &str = "atrium_msgs/msg/LandmarkDetections";
 pub const WHEEL_ODOMETRY: &str = "atrium_msgs/msg/WheelOdometry";
@@ -187,6 +193,7 @@ pub const TOP_LEVEL: &[&str] = &[
     LASER_SCAN,
     IMAGE,
     CAMERA_INFO,
+    JOINT_STATE,
     WIFI_SCAN,
     LANDMARKS,
     WHEEL_ODOMETRY,
@@ -196,6 +203,53 @@ pub const TOP_LEVEL: &[&str] = &[
 
 fn def(name: &str) -> Option<&'static (&'static str, &'static str, &'static [&'static str])> {
     DEFS.iter().find(|d| d.0 == name)
+}
+
+/// A type's own definition (its fields, without the types it uses), as in its `.msg` file
+/// with the comments left out; None for a type not defined here.
+pub fn own_definition(name: &str) -> Option<&'static str> {
+    def(name).map(|d| d.1)
+}
+
+/// Every type of the package `atrium_msgs` (`atrium_msgs/msg/Type`), whose `.msg` files are in
+/// the repository's `ros/atrium_msgs/msg/`.
+pub fn atrium_msgs_types() -> impl Iterator<Item = &'static str> {
+    DEFS.iter()
+        .map(|d| d.0)
+        .filter(|n| n.starts_with("atrium_msgs/"))
+}
+
+/// A `.msg` file's text as a definition here spells it: comments, blank lines and trailing
+/// spaces left out, one field per line ending in a newline.
+pub fn msg_without_comments(text: &str) -> String {
+    let mut out = String::new();
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if !line.is_empty() {
+            out.push_str(&line.split_whitespace().collect::<Vec<_>>().join(" "));
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The sections of a `ros2msg` schema text: (type name, definition), the top-level type
+/// (named `top`) first, then each `MSG:` section with its name as written (`pkg/Type`).
+pub fn schema_sections(top: &str, text: &str) -> Vec<(String, String)> {
+    let mut out = vec![(top.to_string(), String::new())];
+    for line in text.lines() {
+        if line.len() == 80 && line.bytes().all(|b| b == b'=') {
+            continue;
+        }
+        if let Some(name) = line.strip_prefix("MSG: ") {
+            out.push((name.trim().to_string(), String::new()));
+            continue;
+        }
+        let last = out.last_mut().expect("starts with the top-level type");
+        last.1.push_str(line);
+        last.1.push('\n');
+    }
+    out
 }
 
 /// `pkg/msg/Type` -> `pkg/Type`, the spelling of `MSG:` lines.

@@ -156,13 +156,14 @@ pub fn expected_type(topic: &str) -> Option<&'static str> {
     Some(match topic {
         topics::ODOM => msgs::ODOMETRY,
         topics::ODOM_WHEELS => msgs::WHEEL_ODOMETRY,
-        topics::GROUND_TRUTH => msgs::POSE_COV_STAMPED,
+        topics::GROUND_TRUTH => msgs::ODOMETRY,
         topics::SCORE => msgs::SCORING_INSTANT,
         topics::EVENTS => msgs::STRING,
         topics::TF | ros_topics::TF_STATIC => msgs::TF_MESSAGE,
         ros_topics::MAP => msgs::OCCUPANCY_GRID,
         ros_topics::ROBOT_DESCRIPTION => msgs::STRING,
         ros_topics::CLOCK => msgs::CLOCK,
+        ros_topics::JOINT_STATES => msgs::JOINT_STATE,
         t if t.starts_with(ros_topics::RANGES_PREFIX) => msgs::LASER_RANGES,
         t if t.starts_with(topics::SCAN_PREFIX) => msgs::LASER_SCAN,
         t if (t.starts_with(topics::DEPTH_PREFIX)
@@ -192,6 +193,10 @@ pub fn check_type(topic: &str, msg_type: &str) -> Result<(), String> {
             "unknown message type {msg_type:?}: Atrium reads {}",
             msgs::TOP_LEVEL.join(", ")
         ));
+    }
+    // Bags before issue 42 carry the ground truth as a PoseWithCovarianceStamped.
+    if topic == topics::GROUND_TRUTH && msg_type == msgs::POSE_COV_STAMPED {
+        return Ok(());
     }
     match expected_type(topic) {
         Some(want) if want != msg_type => {
@@ -303,8 +308,8 @@ pub struct Decoder {
     base_link: String,
     use_wheels: bool,
     use_score: bool,
-    /// Planar poses of frames relative to the base link, from `/tf` and `/tf_static`.
-    frames: HashMap<String, Pose2>,
+    /// Each frame's parent and planar pose in it, from `/tf_static` and `/tf` (not map or odom).
+    parents: HashMap<String, (String, Pose2)>,
     /// Exact ranges per laser topic suffix, with their log time.
     ranges: HashMap<String, (u64, Vec<f64>)>,
     /// Intrinsics per image topic from its CameraInfo.
@@ -319,10 +324,26 @@ impl Decoder {
             base_link,
             use_wheels: has(topics::ODOM_WHEELS),
             use_score: has(topics::SCORE),
-            frames: HashMap::new(),
+            parents: HashMap::new(),
             ranges: HashMap::new(),
             infos: HashMap::new(),
         }
+    }
+
+    /// The planar pose of `frame` in the base link, through the frame tree (None when it does
+    /// not lead to the base link).
+    fn in_base(&self, frame: &str) -> Option<Pose2> {
+        let mut pose = Pose2::default();
+        let mut at = frame;
+        for _ in 0..=self.parents.len() {
+            if at == self.base_link {
+                return Some(pose);
+            }
+            let (parent, p) = self.parents.get(at)?;
+            pose = p.compose(&pose);
+            at = parent;
+        }
+        None
     }
 
     /// Decodes one message on `topic` (type `schema`, channel metadata `meta`) at log time
@@ -375,6 +396,12 @@ impl Decoder {
                 header(&mut r)?;
                 *score = Some((stamp, pose(&mut r)?.0));
             }
+            msgs::ODOMETRY if !self.use_score && topic == topics::GROUND_TRUTH => {
+                let mut r = CdrReader::new(data)?;
+                header(&mut r)?;
+                r.string()?;
+                *score = Some((stamp, pose(&mut r)?.0));
+            }
             msgs::STRING if topic == topics::EVENTS => {
                 let text = CdrReader::new(data)?.string()?;
                 let v: serde_json::Value =
@@ -388,8 +415,8 @@ impl Decoder {
                     let (_, parent) = header(&mut r)?;
                     let child = r.string()?;
                     let (p, _) = pose(&mut r)?;
-                    if parent == self.base_link {
-                        self.frames.insert(child, p);
+                    if parent != topics::MAP_FRAME && parent != topics::ODOM_FRAME {
+                        self.parents.insert(child, (parent, p));
                     }
                 }
             }
@@ -413,7 +440,17 @@ impl Decoder {
                 let short = r.f32_seq()?;
                 let ranges = match self.ranges.remove(sensor) {
                     Some((at, exact)) if at == ns && exact.len() == short.len() => exact,
-                    _ => short.iter().map(|&x| f64::from(x)).collect(),
+                    // REP 117: +Inf is a beam with no return, which Atrium reads as range_max.
+                    _ => short
+                        .iter()
+                        .map(|&x| {
+                            if x == f32::INFINITY {
+                                f64::from(range_max)
+                            } else {
+                                f64::from(x)
+                            }
+                        })
+                        .collect(),
                 };
                 // A bag from elsewhere: the message's own limits and increment.
                 let f = |x: f32| format!("{:?}", f64::from(x));
@@ -432,7 +469,7 @@ impl Decoder {
                     ranges,
                     intensities: Vec::new(),
                 };
-                let mount = self.frames.get(&msg.frame_id).copied().unwrap_or_default();
+                let mount = self.in_base(&msg.frame_id).unwrap_or_default();
                 readings.push(Reading::Laser(codec::laser_from_message(
                     &msg, &meta, sensor, stamp, mount,
                 )));

@@ -19,7 +19,6 @@ use crate::{topics, Recorded};
 use atrium_formats::cdr::CdrWriter;
 use atrium_formats::mcap::foxglove::{self as codec, ns_of};
 use atrium_formats::mcap::images;
-use atrium_formats::mcap::scene::robot_transforms;
 use atrium_formats::rosbag2::schemas as msgs;
 use atrium_localization::Estimate;
 use atrium_robots::{Mount3, Pose2, Reading};
@@ -40,6 +39,7 @@ pub mod ros_topics {
     pub const MAP: &str = "/map";
     pub const ROBOT_DESCRIPTION: &str = "/robot_description";
     pub const CLOCK: &str = "/clock";
+    pub const JOINT_STATES: &str = "/joint_states";
     /// `/atrium/ranges/<laser>`: a scan's ranges in float64, for an exact replay.
     pub const RANGES_PREFIX: &str = "/atrium/ranges/";
     /// Suffix of the `sensor_msgs/CameraInfo` topic beside each image topic.
@@ -281,22 +281,72 @@ pub(crate) fn pose_cov_stamped(
     covariance6(&mut w, c);
 }
 
-/// `nav_msgs/Odometry` of the wheel odometry: pose in `odom`, twist left zero (the readings
-/// carry no velocity), covariances zero (unknown).
-pub(crate) fn odometry(buf: &mut Vec<u8>, ns: u64, child: &str, p: &Pose2) {
+/// `nav_msgs/Odometry`: pose in `frame`, twist (vx, vy, wz) in the `child` frame, each with
+/// its planar covariance (None: exact, all zero).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn odometry(
+    buf: &mut Vec<u8>,
+    ns: u64,
+    frame: &str,
+    child: &str,
+    p: &Pose2,
+    pose_cov: Option<&Matrix3<f64>>,
+    twist: [f64; 3],
+    twist_cov: Option<&Matrix3<f64>>,
+) {
     let mut w = CdrWriter::start(buf);
-    header(&mut w, ns, topics::ODOM_FRAME);
+    header(&mut w, ns, frame);
     w.string(child);
     planar_pose(&mut w, p);
-    covariance6(&mut w, None);
-    for _ in 0..6 {
-        w.f64(0.0);
+    covariance6(&mut w, pose_cov);
+    for v in [twist[0], twist[1], 0.0, 0.0, 0.0, twist[2]] {
+        w.f64(v);
     }
-    covariance6(&mut w, None);
+    covariance6(&mut w, twist_cov);
+}
+
+/// The planar twist (vx, vy, wz) between two poses `dt` s apart: the motion in the earlier
+/// pose's frame over `dt`.
+fn planar_twist(from: &Pose2, to: &Pose2, dt: f64) -> [f64; 3] {
+    if dt <= 0.0 {
+        return [0.0; 3];
+    }
+    let d = from.inverse().compose(to);
+    [
+        d.x / dt,
+        d.y / dt,
+        atrium_robots::normalize_angle(d.theta) / dt,
+    ]
 }
 
 pub(crate) fn string_msg(buf: &mut Vec<u8>, s: &str) {
     CdrWriter::start(buf).string(s);
+}
+
+/// A transform from a 3D isometry (a URDF joint origin).
+fn isometry_transform(
+    ns: u64,
+    parent: &str,
+    child: &str,
+    iso: &nalgebra::Isometry3<f64>,
+) -> fg::FrameTransform {
+    let (t, q) = (iso.translation.vector, iso.rotation);
+    fg::FrameTransform {
+        timestamp: Some(codec::timestamp(ns)),
+        parent_frame_id: parent.to_string(),
+        child_frame_id: child.to_string(),
+        translation: Some(fg::Vector3 {
+            x: t.x,
+            y: t.y,
+            z: t.z,
+        }),
+        rotation: Some(fg::Quaternion {
+            x: q.i,
+            y: q.j,
+            z: q.k,
+            w: q.w,
+        }),
+    }
 }
 
 /// A mount's transform with the camera optical frame convention (REP 103: z forward, x right,
@@ -374,6 +424,22 @@ fn image(
     pixels(buf);
 }
 
+/// The driven wheel joints with their side (0 left, 1 right) and the sign that turns an
+/// encoder angle (positive forward) into the joint's position about its own axis.
+fn wheel_joints(robot: &atrium_robots::RobotModel) -> Vec<(String, usize, f64)> {
+    let (left, right): (Vec<_>, Vec<_>) = match &robot.drive_kind {
+        atrium_robots::model::DriveKind::SkidSteer(s) => {
+            (s.left.iter().collect(), s.right.iter().collect())
+        }
+        _ => (vec![&robot.left_wheel], vec![&robot.right_wheel]),
+    };
+    let sign = |w: &atrium_robots::Wheel| if w.axis.y >= 0.0 { 1.0 } else { -1.0 };
+    left.into_iter()
+        .map(|w| (w.joint.clone(), 0, sign(w)))
+        .chain(right.into_iter().map(|w| (w.joint.clone(), 1, sign(w))))
+        .collect()
+}
+
 /// Writes one run to a rosbag2 folder (see the module docs). Create it, pass it to the runner
 /// as its observer, then [`Ros2Recorder::finish`]; dropped unfinished, it removes its partial
 /// folder.
@@ -389,11 +455,28 @@ pub struct Ros2Recorder {
     stats: Vec<TopicStat>,
     buf: Vec<u8>,
     laser_frames: HashMap<String, String>,
+    /// Scan rate per laser, Hz (`scan_time`, `time_increment`).
+    laser_rates: HashMap<String, f64>,
     base_link: String,
+    /// `/odom`'s twist and covariances from the odometry model.
+    odom_model: super::odom_model::OdomModel,
+    /// The true pose at the last scoring instant (for `/ground_truth`'s twist).
+    last_truth: Option<(f64, Pose2)>,
+    /// Whether `/tf` also carries `map -> odom` from the ground truth (`--tf-ground-truth`).
+    tf_ground_truth: bool,
+    /// The URDF's joints (fixed ones on `/tf_static`, moving ones on `/joint_states`).
+    joints: Vec<atrium_robots::UrdfJoint>,
+    /// Driven wheel joints: (joint, side 0 left / 1 right, sign of forward rotation).
+    wheel_joints: Vec<(String, usize, f64)>,
+    /// Wheel rotation per encoder tick, rad.
+    rad_per_tick: f64,
+    /// Wheel angles at the last odometry reading (for `/joint_states` velocities).
+    last_wheels: Option<(f64, [f64; 2])>,
     localizer_names: Vec<String>,
     world: atrium_worlds::World,
-    robot: atrium_robots::RobotModel,
     map: atrium_scenarios::scenario::MapSettings,
+    /// The robot's start pose (it is inside the building, for `/map`'s unknown cells).
+    start: Pose2,
     urdf: String,
     /// Every static transform so far: each `/tf_static` message repeats them all, since a
     /// transient-local subscriber is handed the last message only.
@@ -423,6 +506,11 @@ impl Ros2Recorder {
         let world_hash = content_hash(&read(&scenario.world_file)?);
         let urdf_bytes = read(&scenario.robot_file)?;
         let robot_hash = content_hash(&urdf_bytes);
+        let joints = atrium_robots::RobotModel::joint_tree(
+            &String::from_utf8_lossy(&urdf_bytes),
+            &scenario.robot_file.display().to_string(),
+        )
+        .map_err(|e| write_err(dir, format!("the robot's joints for /tf_static: {e}")))?;
         if tmp_dir.exists() {
             // Left by a killed run: only ever a bag of ours, never a user's folder.
             if tmp_dir.is_dir() && only_a_bag(&tmp_dir).unwrap_or(false) {
@@ -536,11 +624,27 @@ impl Ros2Recorder {
                 .iter()
                 .map(|l| (l.name.clone(), l.mount.clone()))
                 .collect(),
+            laser_rates: scenario
+                .lasers
+                .iter()
+                .map(|l| (l.name.clone(), l.rate_hz))
+                .collect(),
             base_link: scenario.robot.base_link.clone(),
+            odom_model: super::odom_model::OdomModel::new(
+                &scenario.odometry,
+                scenario.robot.wheel_radius,
+                scenario.robot.drive().wheel_separation,
+            ),
+            last_truth: None,
+            tf_ground_truth: false,
+            joints,
+            wheel_joints: wheel_joints(&scenario.robot),
+            rad_per_tick: std::f64::consts::TAU / f64::from(scenario.odometry.ticks_per_rev.max(1)),
+            last_wheels: None,
             localizer_names: scenario.localizers.iter().map(|l| l.name.clone()).collect(),
             world: scenario.world.clone(),
-            robot: scenario.robot.clone(),
             map: scenario.map,
+            start: scenario.start,
             urdf: String::from_utf8_lossy(&urdf_bytes).into_owned(),
             statics: Vec::new(),
             started: false,
@@ -548,6 +652,14 @@ impl Ros2Recorder {
             last_ns: 0,
             messages: 0,
         })
+    }
+
+    /// Also publish `map -> odom` on `/tf`, from the ground truth (so that `map -> base` is
+    /// the true pose), for viewing a run; off by default, so that a localizer under test is
+    /// the only `map -> odom` publisher (`atrium record --tf-ground-truth`).
+    pub fn with_tf_ground_truth(mut self, on: bool) -> Self {
+        self.tf_ground_truth = on;
+        self
     }
 
     /// Messages written so far.
@@ -631,10 +743,13 @@ impl Ros2Recorder {
         self.urdf = urdf;
         self.put(ros_topics::ROBOT_DESCRIPTION, msgs::STRING, ns)?;
 
-        let grid = self
+        let mut grid = self
             .world
             .try_occupancy_grid(self.map.resolution, self.map.include_glass)
             .map_err(|e| write_err(&self.dir, format!("the /map occupancy grid: {e}")))?;
+        // Outside the building is unknown (-1), not free: AMCL's particles and a planner's
+        // paths stay inside. The robot's start pose marks the inside.
+        grid.mark_outside_unknown(&[[self.start.x, self.start.y]]);
         {
             let mut w = CdrWriter::start(&mut self.buf);
             header(&mut w, ns, topics::MAP_FRAME);
@@ -656,7 +771,14 @@ impl Ros2Recorder {
         }
         self.put(ros_topics::MAP, msgs::OCCUPANCY_GRID, ns)?;
 
-        self.statics = robot_transforms(&self.robot, ns);
+        // REP 105 / robot_state_publisher: each fixed joint from its parent to its child, as
+        // the URDF's tree has it; moving joints go on /joint_states.
+        self.statics = self
+            .joints
+            .iter()
+            .filter(|j| j.fixed)
+            .map(|j| isometry_transform(ns, &j.parent, &j.child, &j.origin))
+            .collect();
         self.write_statics(ns)
     }
 
@@ -672,12 +794,64 @@ impl Ros2Recorder {
         if self.statics.iter().any(|t| t.child_frame_id == optical) {
             return Ok(());
         }
-        if let Some(m) = mount {
+        // A camera named after a URDF link has its frame from the tree already.
+        let in_tree = self.statics.iter().any(|t| t.child_frame_id == sensor)
+            || self.joints.iter().any(|j| j.child == sensor)
+            || sensor == self.base_link;
+        if let (Some(m), false) = (mount, in_tree) {
             self.statics
                 .push(codec::frame_transform(ns, &self.base_link, sensor, m));
         }
         self.statics.push(optical_transform(ns, sensor));
         self.write_statics(ns)
+    }
+
+    /// `/joint_states` at an odometry reading: the driven wheels' angles from the encoder
+    /// ticks (and their rates), every other moving joint of the URDF held at 0 (as the
+    /// simulator holds casters and the like for the frames).
+    fn joint_states(
+        &mut self,
+        ns: u64,
+        o: &atrium_robots::WheelOdometry,
+    ) -> Result<(), ScenarioError> {
+        let angles = [
+            o.left_ticks as f64 * self.rad_per_tick,
+            o.right_ticks as f64 * self.rad_per_tick,
+        ];
+        let rates = match self.last_wheels.replace((o.stamp, angles)) {
+            Some((t0, a0)) if o.stamp > t0 => [
+                (angles[0] - a0[0]) / (o.stamp - t0),
+                (angles[1] - a0[1]) / (o.stamp - t0),
+            ],
+            _ => [0.0; 2],
+        };
+        let mut names = Vec::new();
+        let mut position = Vec::new();
+        let mut velocity = Vec::new();
+        for (joint, side, sign) in &self.wheel_joints {
+            names.push(joint.as_str());
+            position.push(sign * angles[*side]);
+            velocity.push(sign * rates[*side]);
+        }
+        for j in &self.joints {
+            if !j.fixed && !names.contains(&j.name.as_str()) {
+                names.push(&j.name);
+                position.push(0.0);
+                velocity.push(0.0);
+            }
+        }
+        {
+            let mut w = CdrWriter::start(&mut self.buf);
+            header(&mut w, ns, "");
+            w.len(names.len());
+            for n in &names {
+                w.string(n);
+            }
+            w.f64_seq(&position);
+            w.f64_seq(&velocity);
+            w.len(0); // effort: unknown
+        }
+        self.put(ros_topics::JOINT_STATES, msgs::JOINT_STATE, ns)
     }
 
     fn write_reading(
@@ -690,8 +864,19 @@ impl Ros2Recorder {
         let info_topic = |t: &str| format!("{t}{}", ros_topics::CAMERA_INFO_SUFFIX);
         match r {
             Reading::Odometry(o) => {
-                odometry(&mut self.buf, ns, &self.base_link, &o.pose);
+                let u = self.odom_model.update(o.stamp, o.pose);
+                odometry(
+                    &mut self.buf,
+                    ns,
+                    topics::ODOM_FRAME,
+                    &self.base_link,
+                    &o.pose,
+                    Some(&u.pose),
+                    u.twist,
+                    Some(&u.twist_covariance),
+                );
                 self.put(topics::ODOM, msgs::ODOMETRY, ns)?;
+                self.joint_states(ns, o)?;
                 {
                     let mut w = CdrWriter::start(&mut self.buf);
                     header(&mut w, ns, topics::ODOM_FRAME);
@@ -702,15 +887,16 @@ impl Ros2Recorder {
                     w.i64(o.right_ticks);
                 }
                 self.put(topics::ODOM_WHEELS, msgs::WHEEL_ODOMETRY, ns)?;
-                // REP 105: odom -> base from the wheels; map -> odom such that map -> base
-                // is the true pose.
+                // REP 105: odom -> base from the wheels; with --tf-ground-truth also map ->
+                // odom such that map -> base is the true pose (else the localizer under test
+                // publishes map -> odom alone).
                 let mut transforms = vec![codec::planar_transform(
                     ns,
                     topics::ODOM_FRAME,
                     &self.base_link,
                     &o.pose,
                 )];
-                if let Some(gt) = truth {
+                if let (true, Some(gt)) = (self.tf_ground_truth, truth) {
                     transforms.push(codec::planar_transform(
                         ns,
                         topics::MAP_FRAME,
@@ -739,18 +925,36 @@ impl Ros2Recorder {
                     let mut w = CdrWriter::start(&mut self.buf);
                     header(&mut w, ns, &frame);
                     let last = scan.ranges.len().saturating_sub(1);
+                    // scan_time from the rate; time_increment as a spinning scanner's: the
+                    // mirror turns 2π per scan, so one increment takes that share of it.
+                    let scan_time = self
+                        .laser_rates
+                        .get(&scan.sensor)
+                        .filter(|r| **r > 0.0)
+                        .map_or(0.0, |r| 1.0 / r);
+                    let time_increment =
+                        scan_time * scan.angle_increment.abs() / std::f64::consts::TAU;
                     for v in [
                         scan.angle_min,
                         scan.beam_angle(last),
                         scan.angle_increment,
-                        0.0,
-                        0.0,
+                        time_increment,
+                        scan_time,
                         scan.range_min,
                         scan.range_max,
                     ] {
                         w.f32(v as f32);
                     }
-                    w.f32_seq(scan.ranges.iter().map(|&r| r as f32));
+                    // REP 117: a beam with no return (the simulator reads it as range_max)
+                    // is +Inf, so that costmaps clear along it.
+                    let max = scan.range_max;
+                    w.f32_seq(scan.ranges.iter().map(|&r| {
+                        if r >= max {
+                            f32::INFINITY
+                        } else {
+                            r as f32
+                        }
+                    }));
                     w.len(0); // intensities
                 }
                 let topic = format!("{}{}", topics::SCAN_PREFIX, scan.sensor);
@@ -1009,8 +1213,24 @@ impl RunObserver for Ros2Recorder {
             self.write_reading(r, ns, tick.truth)?;
         }
         if let (true, Some(gt)) = (tick.score, tick.truth) {
-            pose_cov_stamped(&mut self.buf, ns, topics::MAP_FRAME, &gt, None);
-            self.put(topics::GROUND_TRUTH, msgs::POSE_COV_STAMPED, ns)?;
+            // nav_msgs/Odometry in map, child the base link; the twist from the previous
+            // scoring instant; exact (covariances zero).
+            let twist = self
+                .last_truth
+                .map_or([0.0; 3], |(t0, p0)| planar_twist(&p0, &gt, tick.t - t0));
+            self.last_truth = Some((tick.t, gt));
+            let base = self.base_link.clone();
+            odometry(
+                &mut self.buf,
+                ns,
+                topics::MAP_FRAME,
+                &base,
+                &gt,
+                None,
+                twist,
+                None,
+            );
+            self.put(topics::GROUND_TRUTH, msgs::ODOMETRY, ns)?;
             {
                 let mut w = CdrWriter::start(&mut self.buf);
                 header(&mut w, ns, topics::MAP_FRAME);
@@ -1046,8 +1266,28 @@ pub fn record_ros2(
     dir: &Path,
     options: RunOptions,
 ) -> Result<Recorded, ScenarioError> {
+    record_ros2_with(registry, scenario, dir, options, Ros2Options::default())
+}
+
+/// How a ROS 2 bag is written, beyond the run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Ros2Options {
+    /// `--tf-ground-truth`: `/tf` also carries `map -> odom` from the ground truth (see
+    /// [`Ros2Recorder::with_tf_ground_truth`]).
+    pub tf_ground_truth: bool,
+}
+
+/// [`record_ros2`] with [`Ros2Options`].
+pub fn record_ros2_with(
+    registry: &LocalizerRegistry,
+    scenario: &Scenario,
+    dir: &Path,
+    options: RunOptions,
+    ros2: Ros2Options,
+) -> Result<Recorded, ScenarioError> {
     let seed = options.seed.unwrap_or(scenario.seed);
-    let mut recorder = Ros2Recorder::create(dir, scenario, seed)?;
+    let mut recorder =
+        Ros2Recorder::create(dir, scenario, seed)?.with_tf_ground_truth(ros2.tf_ground_truth);
     let run = run_observed(registry, scenario, seed, options, &mut recorder)?;
     let messages = recorder.messages();
     let bytes = recorder.finish(&run)?;
