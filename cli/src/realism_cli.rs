@@ -341,39 +341,44 @@ fn add_realism(html: &mut HtmlReport, r: &realism::Realism, figures: &[(String, 
     }
     if let Some(d) = &r.drift {
         let s = html.section("Dead-reckoning drift over 10 m stretches");
+        // One row: label, real, twin, twin's range and ratio, with `p` decimals.
+        let row = |label: &str, real: f64, sim: f64, range: [f64; 2], ratio: f64, p: usize| {
+            vec![
+                label.to_string(),
+                format!("{real:.p$}"),
+                format!("{sim:.p$}"),
+                format!("{:.p$}–{:.p$}", range[0], range[1]),
+                format!("{ratio:.2}"),
+            ]
+        };
+        let (real, sim, range, ratio) = (&d.real, &d.sim, &d.sim_spread, &d.ratio);
         s.table(
             &["", "real", "twin", "twin range over seeds", "ratio"],
             vec![
-                vec![
-                    "median, % of distance".into(),
-                    format!("{:.2}", d.real.median_pct),
-                    format!("{:.2}", d.sim.median_pct),
-                    format!(
-                        "{:.2}–{:.2}",
-                        d.sim_spread.median_pct[0], d.sim_spread.median_pct[1]
-                    ),
-                    format!("{:.2}", d.ratio.median_pct),
-                ],
-                vec![
-                    "90th percentile, %".into(),
-                    format!("{:.2}", d.real.p90_pct),
-                    format!("{:.2}", d.sim.p90_pct),
-                    format!(
-                        "{:.2}–{:.2}",
-                        d.sim_spread.p90_pct[0], d.sim_spread.p90_pct[1]
-                    ),
-                    format!("{:.2}", d.ratio.p90_pct),
-                ],
-                vec![
-                    "heading, °/m".into(),
-                    format!("{:.3}", d.real.heading_deg_per_m),
-                    format!("{:.3}", d.sim.heading_deg_per_m),
-                    format!(
-                        "{:.3}–{:.3}",
-                        d.sim_spread.heading_deg_per_m[0], d.sim_spread.heading_deg_per_m[1]
-                    ),
-                    format!("{:.2}", d.ratio.heading_deg_per_m),
-                ],
+                row(
+                    "median, % of distance",
+                    real.median_pct,
+                    sim.median_pct,
+                    range.median_pct,
+                    ratio.median_pct,
+                    2,
+                ),
+                row(
+                    "90th percentile, %",
+                    real.p90_pct,
+                    sim.p90_pct,
+                    range.p90_pct,
+                    ratio.p90_pct,
+                    2,
+                ),
+                row(
+                    "heading, °/m",
+                    real.heading_deg_per_m,
+                    sim.heading_deg_per_m,
+                    range.heading_deg_per_m,
+                    ratio.heading_deg_per_m,
+                    3,
+                ),
             ],
         );
         s.verdict(
