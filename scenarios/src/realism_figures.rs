@@ -4,6 +4,7 @@
 //! histograms, and both maps (the log's and the twin's, where the reference path is cleared)
 //! with the reference and the twin's driven path.
 
+use crate::calibrate::drift::quantile;
 use crate::figure::{
     colour, histogram, line_panels, map_figure, Figure, FigureError, Histogram, LineChart, MapBase,
     MapFigure, MapPath, Sample, Series, Threshold,
@@ -208,16 +209,9 @@ pub fn seed_summary(per_seed: &[Vec<Option<f64>>], width: f64) -> CurveWithBand 
         if values.is_empty() {
             continue;
         }
-        values.sort_by(f64::total_cmp);
         let x = (i as f64 + 0.5) * width;
-        let m = values.len();
-        let mid = if m % 2 == 1 {
-            values[m / 2]
-        } else {
-            0.5 * (values[m / 2 - 1] + values[m / 2])
-        };
-        median.push((x, mid));
-        band.push((x, values[0], values[m - 1]));
+        median.push((x, quantile(&values, 0.5)));
+        band.push((x, quantile(&values, 0.0), quantile(&values, 1.0)));
     }
     (median, band)
 }
