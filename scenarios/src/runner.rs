@@ -245,13 +245,20 @@ impl<'a> SimStream<'a> {
             Some(route) => sim
                 .set_node_route(&route.nodes, route.params)
                 .map_err(|e| ScenarioError::field(&scenario.file, "route", e.to_string()))?,
-            None => sim.set_route(&crate::route_jitter::jittered_waypoints(
-                &scenario.world,
-                [scenario.start.x, scenario.start.y],
-                &scenario.waypoints,
-                scenario.route_jitter,
-                seed,
-            )),
+            None => {
+                sim.set_route(&crate::route_jitter::jittered_waypoints(
+                    &scenario.world,
+                    [scenario.start.x, scenario.start.y],
+                    &scenario.waypoints,
+                    scenario.route_jitter,
+                    seed,
+                ));
+                if !scenario.route_speeds.is_empty() {
+                    sim.set_leg_speeds(&scenario.route_speeds).map_err(|e| {
+                        ScenarioError::field(&scenario.file, "route.speeds", e.to_string())
+                    })?;
+                }
+            }
         }
         let eval_every = scenario.physics_hz / scenario.eval_hz;
         Ok(SimStream {

@@ -122,6 +122,10 @@ struct RouteFile {
     /// written.
     #[serde(default)]
     jitter: f64,
+    /// Speed limit of the leg ending at each waypoint, m/s (one per waypoint); empty: every
+    /// leg at `[controller] max_speed`. A twin drives its reference at the recorded speeds.
+    #[serde(default)]
+    speeds: Vec<f64>,
 }
 
 /// Which map the localizers are given.
@@ -245,6 +249,9 @@ pub struct Scenario {
     pub start: Pose2,
     pub waypoints: Vec<[f64; 2]>,
     pub settle_s: f64,
+    /// `[route] speeds`: the speed limit of the leg ending at each waypoint, m/s; empty when
+    /// every leg is driven at `[controller] max_speed`.
+    pub route_speeds: Vec<f64>,
     /// `[route] jitter`: each run moves every waypoint but the last within this radius, m,
     /// drawn from the run's seed (`crate::route_jitter`). 0 by default.
     pub route_jitter: f64,
@@ -364,6 +371,39 @@ fn check_sensor_rates(
                 ),
             ));
         }
+    }
+    Ok(())
+}
+
+/// `[route] speeds`: one finite speed > 0 per waypoint, on a waypoint route.
+fn check_route_speeds(
+    file: &Path,
+    route: &RouteFile,
+    node_route: bool,
+) -> Result<(), ScenarioError> {
+    if route.speeds.is_empty() {
+        return Ok(());
+    }
+    if node_route {
+        return Err(ScenarioError::field(
+            file,
+            "route.speeds",
+            "applies to waypoint routes only, not to node routes",
+        ));
+    }
+    if route.speeds.len() != route.waypoints.len() {
+        return Err(ScenarioError::field(
+            file,
+            "route.speeds",
+            format!(
+                "has {} speeds for {} waypoints: give one per waypoint (m/s)",
+                route.speeds.len(),
+                route.waypoints.len()
+            ),
+        ));
+    }
+    for (i, &v) in route.speeds.iter().enumerate() {
+        check_positive(file, &format!("route.speeds[{i}]"), v)?;
     }
     Ok(())
 }
@@ -883,6 +923,7 @@ impl Scenario {
                 "must be >= 0 (metres)",
             ));
         }
+        check_route_speeds(file, &route, node_route.is_some())?;
         if route.jitter > 0.0 && node_route.is_some() {
             return Err(ScenarioError::field(
                 file,
@@ -1324,6 +1365,7 @@ impl Scenario {
                 None => route.waypoints,
             },
             settle_s: route.settle_s,
+            route_speeds: route.speeds,
             route_jitter: route.jitter,
             controller,
             people,

@@ -4,8 +4,9 @@
 //! reference trajectory, and its localizers and initial belief the log scenario's own.
 //!
 //! Where the twin differs from the run it copies, by construction: the route is followed by
-//! Atrium's waypoint controller at the log's median moving speed (the real robot's speed
-//! profile and its stops are not replayed), the robot is the Pioneer-sized generic one
+//! Atrium's waypoint controller, each leg at the speed the log moved along it (the real
+//! robot's stops are not replayed, and it turns in place at sharp corners where the real one
+//! may have turned while driving), the robot is the Pioneer-sized generic one
 //! whatever the real robot was, and unknown map cells are empty space.
 //!
 //! The twin's map is the log's map with every occupied cell within the generic robot's reach
@@ -101,17 +102,47 @@ pub fn clear_along_path(grid: &mut OccupancyGrid, path: &[(f64, Pose2)], radius:
 /// straight lines between them stay within [`ROUTE_TOLERANCE_M`] of the path (a 180° loop
 /// keeps its shape, a straight corridor becomes one segment), plus its last pose.
 pub fn waypoints(reference: &[(f64, Pose2)]) -> Vec<[f64; 2]> {
+    route(reference).0
+}
+
+/// The reference's waypoints (as [`waypoints`]) and the speed of each leg, the one ending at
+/// each waypoint: the reference's distance along that leg over the time it took, counting
+/// only the time it moved (faster than [`MOVING_M_S`]), so that the twin drives each stretch
+/// as fast as the real robot drove it, without its stops. A leg on which the reference never
+/// moved gets the run's median moving speed.
+pub fn route(reference: &[(f64, Pose2)]) -> (Vec<[f64; 2]>, Vec<f64>) {
     let points: Vec<[f64; 2]> = reference.iter().map(|(_, p)| [p.x, p.y]).collect();
     if points.is_empty() {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let keep = douglas_peucker(&points, ROUTE_TOLERANCE_M);
+    let fallback = moving_speed(reference);
+    let leg = |a: usize, b: usize| {
+        let (mut dist, mut time) = (0.0, 0.0);
+        for w in reference[a..=b].windows(2) {
+            let (dt, d) = (w[1].0 - w[0].0, w[0].1.distance(&w[1].1));
+            if dt > 0.0 && d / dt > MOVING_M_S && d.is_finite() {
+                dist += d;
+                time += dt;
+            }
+        }
+        if time > 0.0 {
+            dist / time
+        } else {
+            fallback
+        }
+    };
     // The start is where the robot already stands.
-    let mut out: Vec<[f64; 2]> = keep.into_iter().skip(1).map(|k| points[k]).collect();
+    let (mut out, mut speeds) = (Vec::new(), Vec::new());
+    for pair in keep.windows(2) {
+        out.push(points[pair[1]]);
+        speeds.push(leg(pair[0], pair[1]));
+    }
     if out.is_empty() {
         out.push(points[points.len() - 1]);
+        speeds.push(fallback);
     }
-    out
+    (out, speeds)
 }
 
 /// Distance of `p` from the segment `a`–`b`.
@@ -156,18 +187,74 @@ pub fn douglas_peucker(points: &[[f64; 2]], eps: f64) -> Vec<usize> {
 
 /// The median speed of the reference while it moves, m/s.
 pub fn moving_speed(reference: &[(f64, Pose2)]) -> f64 {
-    let speeds: Vec<f64> = reference
+    quantile_or(&moving_speeds(reference), 0.5, 0.3)
+}
+
+/// The reference's speed between successive poses where it moves, m/s.
+fn moving_speeds(reference: &[(f64, Pose2)]) -> Vec<f64> {
+    reference
         .windows(2)
         .filter(|w| w[1].0 > w[0].0)
         .map(|w| w[0].1.distance(&w[1].1) / (w[1].0 - w[0].0))
         .filter(|v| *v > MOVING_M_S && v.is_finite())
-        .collect();
-    let q = crate::calibrate::drift::quantile(&speeds, 0.5);
-    if q.is_finite() {
-        q
+        .collect()
+}
+
+/// Quantile `q` of `v`, or `fallback` when `v` has none.
+fn quantile_or(v: &[f64], q: f64, fallback: f64) -> f64 {
+    let x = crate::calibrate::drift::quantile(v, q);
+    if x.is_finite() {
+        x
     } else {
-        0.3
+        fallback
     }
+}
+
+/// Share of the reference's samples whose speed, turn rate or acceleration a limit fitted
+/// from it may exceed: the top 1 %, where a reference fitted to relations jumps rather than
+/// the robot (MIT CSAIL's has a few legs that would be driven at 3-4 m/s).
+const LIMIT_QUANTILE: f64 = 0.99;
+/// Poses over which the reference's speed is averaged before differencing it into an
+/// acceleration (at a laser's 5 Hz, about a second).
+const ACCEL_SMOOTHING_POSES: usize = 5;
+
+/// The waypoint follower's limits fitted from the reference, as the real robot drove:
+/// (top speed m/s, acceleration m/s², turn rate rad/s), each the [`LIMIT_QUANTILE`] of the
+/// reference's own values and never below the controller's defaults' order of magnitude
+/// (a log that barely moves still gets a drivable twin).
+pub fn drive_limits(reference: &[(f64, Pose2)]) -> (f64, f64, f64) {
+    let top = quantile_or(&moving_speeds(reference), LIMIT_QUANTILE, 0.5).max(0.1);
+    let mut speeds = Vec::new();
+    let mut turns = Vec::new();
+    for w in reference.windows(2) {
+        let dt = w[1].0 - w[0].0;
+        if dt > 0.0 {
+            let v = w[0].1.distance(&w[1].1) / dt;
+            let dth = atrium_robots::normalize_angle(w[1].1.theta - w[0].1.theta);
+            if v.is_finite() && dth.is_finite() {
+                speeds.push((0.5 * (w[0].0 + w[1].0), v));
+                turns.push(dth.abs() / dt);
+            }
+        }
+    }
+    let smoothed: Vec<(f64, f64)> = speeds
+        .windows(ACCEL_SMOOTHING_POSES)
+        .map(|w| {
+            let n = w.len() as f64;
+            (
+                w.iter().map(|s| s.0).sum::<f64>() / n,
+                w.iter().map(|s| s.1).sum::<f64>() / n,
+            )
+        })
+        .collect();
+    let accels: Vec<f64> = smoothed
+        .windows(2)
+        .filter(|w| w[1].0 > w[0].0)
+        .map(|w| (w[1].1 - w[0].1).abs() / (w[1].0 - w[0].0))
+        .collect();
+    let accel = quantile_or(&accels, LIMIT_QUANTILE, 0.5).max(0.2);
+    let turn = quantile_or(&turns, LIMIT_QUANTILE, 1.0).max(0.5);
+    (top, accel, turn)
 }
 
 fn toml_path(p: &Path) -> String {
@@ -227,14 +314,16 @@ pub fn twin(
     let cleared_cells = clear_along_path(&mut grid, &log.reference, clearance);
 
     let start = log.start_pose();
-    let route = waypoints(&log.reference);
+    let (route, leg_speeds) = route(&log.reference);
     let speed = moving_speed(&log.reference);
+    let (top_speed, max_accel, max_turn_rate) = drive_limits(&log.reference);
     let mut t = String::new();
     let _ = writeln!(
         t,
         "# The twin of {} (written by `atrium twin`): the same run simulated, with the models\n\
-         # calibrated from the log. Route: the reference within {ROUTE_TOLERANCE_M} m, driven at \
-         the log's\n# median moving speed ({speed:.2} m/s). Map: {}, with {cleared_cells} occupied \
+         # calibrated from the log. Route: the reference within {ROUTE_TOLERANCE_M} m, each leg \
+         driven at the\n# speed the log moved along it (median {speed:.2} m/s; stops are not \
+         replayed). Map: {}, with {cleared_cells} occupied \
          cells within\n# {clearance:.2} m of the reference path made free.",
         scenario.file.display(),
         map.file.display(),
@@ -266,10 +355,17 @@ pub fn twin(
         let _ = writeln!(t, "  [{:.3}, {:.3}],", w[0], w[1]);
     }
     let _ = writeln!(t, "]");
-    // A quicker turn than the default, for a real robot's turns at its speed.
+    let _ = writeln!(t, "# m/s on the leg ending at each waypoint\nspeeds = [");
+    for row in leg_speeds.chunks(10) {
+        let row: Vec<String> = row.iter().map(|v| format!("{v:.3}")).collect();
+        let _ = writeln!(t, "  {},", row.join(", "));
+    }
+    let _ = writeln!(t, "]");
     let _ = writeln!(
         t,
-        "\n[controller]\nmax_speed = {speed:.3}\ngoal_tolerance = {TWIN_GOAL_TOLERANCE_M}\nmax_turn_rate = 2.0"
+        "\n# Speed, acceleration and turn rate: the 99th percentiles of the reference's.\n\
+         [controller]\nmax_speed = {top_speed:.3}\nmax_accel = {max_accel:.3}\n\
+         max_turn_rate = {max_turn_rate:.3}\ngoal_tolerance = {TWIN_GOAL_TOLERANCE_M}"
     );
     let _ = writeln!(
         t,
@@ -366,6 +462,39 @@ mod tests {
         }
         let straight: Vec<(f64, Pose2)> = r[..=50].to_vec();
         assert!((moving_speed(&straight) - 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn each_leg_is_driven_at_the_speed_the_reference_moved_along_it() {
+        // 5 m east at 0.2 m/s, a 10 s stop, then 5 m north at 0.8 m/s.
+        let mut r: Vec<(f64, Pose2)> = (0..=25)
+            .map(|k| (k as f64, Pose2::new(0.2 * k as f64, 0.0, 0.0)))
+            .collect();
+        r.extend((1..=10).map(|k| (25.0 + k as f64, Pose2::new(5.0, 0.0, 0.0))));
+        r.extend((1..=25).map(|k| (35.0 + 0.25 * k as f64, Pose2::new(5.0, 0.2 * k as f64, 0.0))));
+        let (w, v) = route(&r);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert_eq!(w.len(), v.len());
+        // The stop is not counted as slow driving.
+        assert!((v[0] - 0.2).abs() < 1e-9, "{v:?}");
+        assert!((v[1] - 0.8).abs() < 1e-9, "{v:?}");
+        let (top, accel, turn) = drive_limits(&r);
+        assert!((0.79..=0.81).contains(&top), "{top}");
+        assert!(accel > 0.2 && accel.is_finite(), "{accel}");
+        assert!((0.5..1.0).contains(&turn), "{turn}");
+    }
+
+    #[test]
+    fn a_jump_in_the_reference_does_not_set_the_top_speed() {
+        // 200 poses at 0.5 m/s with one 5 m jump: the top speed stays the robot's.
+        let mut r: Vec<(f64, Pose2)> = Vec::new();
+        let mut x = 0.0;
+        for k in 0..200 {
+            x += if k == 100 { 5.0 } else { 0.1 };
+            r.push((0.2 * k as f64, Pose2::new(x, 0.0, 0.0)));
+        }
+        let (top, _, _) = drive_limits(&r);
+        assert!((top - 0.5).abs() < 1e-6, "{top}");
     }
 
     #[test]

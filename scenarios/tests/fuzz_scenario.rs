@@ -169,6 +169,7 @@ fn check_usable(s: &Scenario) {
     );
     assert!(s.waypoints.iter().all(|w| inside(*w)), "{:?}", s.waypoints);
     assert!(s.route_jitter.is_finite() && s.route_jitter >= 0.0);
+    assert!(s.route_speeds.iter().all(|v| v.is_finite() && *v > 0.0));
     assert!(s.controller.max_speed.is_finite() && s.controller.max_speed <= 10.0);
     for l in &s.lasers {
         assert!(l.rate_hz <= s.physics_hz, "{l:?}");

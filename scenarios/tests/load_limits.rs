@@ -60,3 +60,38 @@ fn sensor_rates_above_the_physics_rate_are_refused_under_the_sensors_name() {
         .to_string();
     assert!(e.contains("odometry.rate_hz: 250 Hz"), "{e}");
 }
+
+fn route_with_speeds(speeds: &str) -> Result<Scenario, ScenarioError> {
+    let text = format!(
+        r#"
+name = "probe"
+duration_s = 2.0
+world = "../worlds/campus.toml"
+robot = "../robots/urdf/pioneer3dx.urdf"
+[start]
+pose = [2.0, 20.0, 0.0]
+[route]
+waypoints = [[8.0, 20.0], [12.0, 20.0]]
+speeds = {speeds}
+[[localizers]]
+name = "odometry"
+kind = "dead_reckoning"
+"#
+    );
+    Scenario::from_toml_str(&text, &file())
+}
+
+#[test]
+fn route_speeds_are_one_finite_positive_speed_per_waypoint() {
+    let s = route_with_speeds("[0.3, 0.6]").unwrap();
+    assert_eq!(s.route_speeds, vec![0.3, 0.6]);
+    let e = route_with_speeds("[0.3]").unwrap_err().to_string();
+    assert!(
+        e.contains("route.speeds: has 1 speeds for 2 waypoints"),
+        "{e}"
+    );
+    for bad in ["[0.3, 0.0]", "[0.3, -1.0]", "[0.3, nan]", "[0.3, inf]"] {
+        let e = route_with_speeds(bad).unwrap_err().to_string();
+        assert!(e.contains("route.speeds[1]"), "{bad}: {e}");
+    }
+}

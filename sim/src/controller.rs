@@ -74,6 +74,9 @@ pub struct WaypointFollower {
     params: ControllerParams,
     drive: DiffDrive,
     waypoints: Vec<[f64; 2]>,
+    /// Speed limit of the leg that ends at each waypoint, m/s (below `max_speed`); empty when
+    /// every leg may be driven at `max_speed`.
+    leg_speeds: Vec<f64>,
     next: usize,
     turning: bool,
     /// Current (rate-limited) body velocity command.
@@ -132,6 +135,7 @@ impl WaypointFollower {
             params,
             drive,
             waypoints: Vec::new(),
+            leg_speeds: Vec::new(),
             next: 0,
             turning: false,
             v: 0.0,
@@ -149,8 +153,39 @@ impl WaypointFollower {
     pub fn set_route(&mut self, waypoints: &[[f64; 2]]) {
         self.waypoints.clear();
         self.waypoints.extend_from_slice(waypoints);
+        self.leg_speeds.clear();
         self.next = 0;
         self.turning = false;
+    }
+
+    /// Limits the speed of each leg of the route set last: `speeds[i]` (m/s) on the leg that
+    /// ends at waypoint `i`, `max_speed` still the cap. A twin drives its reference this way
+    /// at the speeds it was recorded at. Every speed must be finite and > 0, one per waypoint.
+    pub fn set_leg_speeds(&mut self, speeds: &[f64]) -> Result<(), SimError> {
+        if speeds.len() != self.waypoints.len() {
+            return Err(SimError::config(
+                "route.speeds",
+                format!(
+                    "has {} speeds for {} waypoints: give one per waypoint",
+                    speeds.len(),
+                    self.waypoints.len()
+                ),
+            ));
+        }
+        for (i, &v) in speeds.iter().enumerate() {
+            crate::error::positive(&format!("route.speeds[{i}]"), v)?;
+        }
+        self.leg_speeds.clear();
+        self.leg_speeds.extend_from_slice(speeds);
+        Ok(())
+    }
+
+    /// Speed limit on the leg ending at waypoint `i`, m/s.
+    fn leg_speed(&self, i: usize) -> f64 {
+        match self.leg_speeds.get(i) {
+            Some(&v) => v.min(self.params.max_speed),
+            None => self.params.max_speed,
+        }
     }
 
     pub fn finished(&self) -> bool {
@@ -203,7 +238,9 @@ impl WaypointFollower {
         if turn >= self.params.turn_in_place_above {
             0.0
         } else {
-            self.params.max_speed * (1.0 - turn / self.params.turn_in_place_above)
+            // No faster than either leg allows: the next one may be a slower stretch.
+            self.leg_speed(i).min(self.leg_speed(i + 1))
+                * (1.0 - turn / self.params.turn_in_place_above)
         }
     }
 
@@ -249,8 +286,8 @@ impl WaypointFollower {
                 // Aim to stop (or slow to the pass speed) half a tolerance before the
                 // waypoint, so braking ends inside the tolerance circle.
                 let v_pass = self.pass_speed(self.next);
-                let v = p
-                    .max_speed
+                let v = self
+                    .leg_speed(self.next)
                     .min(self.braking_speed(dist - 0.5 * p.goal_tolerance, v_pass))
                     * err.cos().max(0.0);
                 (v, w_des)
@@ -297,6 +334,31 @@ mod tests {
             each(&pose, f);
         }
         pose
+    }
+
+    #[test]
+    fn each_leg_keeps_its_own_speed_limit() {
+        let p = ControllerParams {
+            max_speed: 1.0,
+            ..Default::default()
+        };
+        let mut f = WaypointFollower::new(p, drive()).unwrap();
+        f.set_route(&[[10.0, 0.0], [20.0, 0.0]]);
+        f.set_leg_speeds(&[0.3, 0.8]).unwrap();
+        let mut top = [0.0f64; 2];
+        run(&mut f, Pose2::new(0.0, 0.0, 0.0), 0.05, 1200, |_, f| {
+            let leg = f.next_waypoint().min(1);
+            top[leg] = top[leg].max(f.command().0);
+        });
+        assert!((top[0] - 0.3).abs() < 1e-9, "{top:?}");
+        assert!((top[1] - 0.8).abs() < 1e-9, "{top:?}");
+        // One speed per waypoint, each finite and > 0.
+        assert!(f.set_leg_speeds(&[0.3]).is_err());
+        let err = f.set_leg_speeds(&[0.3, f64::NAN]).unwrap_err().to_string();
+        assert!(err.contains("route.speeds[1]"), "{err}");
+        // A new route drops the old limits.
+        f.set_route(&[[1.0, 0.0]]);
+        assert_eq!(f.leg_speed(0), 1.0);
     }
 
     #[test]

@@ -267,6 +267,12 @@ impl Simulation {
         self.follower.set_route(waypoints);
     }
 
+    /// Limits each leg of the route set last to its own speed (see
+    /// [`WaypointFollower::set_leg_speeds`]).
+    pub fn set_leg_speeds(&mut self, speeds: &[f64]) -> Result<(), SimError> {
+        self.follower.set_leg_speeds(speeds)
+    }
+
     /// Drives the wheel motors directly (rad/s, forward positive) from the next step on,
     /// bypassing the waypoint follower until [`Simulation::set_route`] is called. For node
     /// controllers written elsewhere and for calibrating the physics.
