@@ -15,15 +15,15 @@
 //! and the estimate is the one of the last sensor update carried forward by the odometry
 //! received since.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::initial_belief::InitialBelief;
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::InitialBelief;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::FitTracker;
+use crate::filter::particle_set::ParticleSet;
+use crate::filter::particles::{CarriedEstimate, HeadingTrig};
+use crate::filter::resampling::ResamplePolicy;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::FitTracker;
-use crate::particle_set::ParticleSet;
-use crate::particles::{CarriedEstimate, HeadingTrig};
-use crate::resampling::ResamplePolicy;
 use atrium_robots::{IntensityImage, Pose2, Reading};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -99,11 +99,11 @@ impl FilterCore {
 /// here rather than twice in each filter.
 macro_rules! core_in_field {
     () => {
-        fn core(&self) -> &$crate::particle_filter::FilterCore {
+        fn core(&self) -> &$crate::filter::particle_filter::FilterCore {
             &self.core
         }
 
-        fn core_mut(&mut self) -> &mut $crate::particle_filter::FilterCore {
+        fn core_mut(&mut self) -> &mut $crate::filter::particle_filter::FilterCore {
             &mut self.core
         }
     };

@@ -11,16 +11,16 @@
 //! particles, and the likelihood has an outlier floor so that one odd reading cannot wipe out
 //! the right hypothesis.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::limits::check_positive;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::particle_filter::{
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::particle_filter::{
     core_in_field, intensity_from, FilterCore, MeasurementModel, ParticleFilter,
 };
-use crate::particles::{ReadingCounts, ReadingTally};
-use crate::resampling::ResamplePolicy;
+use crate::filter::particles::{ReadingCounts, ReadingTally};
+use crate::filter::resampling::ResamplePolicy;
+use crate::limits::check_positive;
+use crate::localizers::mcl::InitialBelief;
 use atrium_robots::{IntensityImage, Reading};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -239,8 +239,8 @@ impl Default for CeilingMclParams {
 
 impl CeilingMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         for (name, v) in [("sigma", self.sigma), ("range", self.range)] {
             check_positive(name, v)?;
         }

@@ -27,15 +27,15 @@
 //!   least `accept_sigma_xy` / `accept_sigma_theta` (slip the odometry model cannot see). A
 //!   refinement that pulls a sample somewhere the motion cannot explain is refused.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
-use crate::initial_belief::check_gaussian;
-use crate::line_map::{Correspondence, LineMap};
-use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
-use crate::resampling::ResamplePolicy;
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::check_gaussian;
+use crate::filter::motion::{apply_increment, OdometryMotionModel};
+use crate::filter::observation_fit::{per_unit_log_mean, FitTracker};
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::resampling::ResamplePolicy;
+use crate::maps::line_map::{Correspondence, LineMap};
+use crate::sensor_models::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
 use rand::Rng;
@@ -133,7 +133,7 @@ impl CgrParams {
     /// Checks every field; the message names the field and the value.
     pub fn validate(&self) -> Result<(), String> {
         check_count_min1("particles", self.particles, MAX_PARTICLES, "MAX_PARTICLES")?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         check_count(
             "refinements",
             self.refinements,

@@ -2,22 +2,24 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
-use crate::beam_model::{beam_probability, cast_rays, BeamModelParams};
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::initial_belief::{check_gaussian, gaussian_pose};
-use crate::kld::KldSampling;
-use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::{check_gaussian, gaussian_pose};
+use crate::filter::kld::KldSampling;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::FitTracker;
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::particles::Headings;
+use crate::filter::resampling::ResamplePolicy;
 use crate::limits::{
     check_count, check_count_min1, check_grid, check_positive, MAX_BEAMS, MAX_GLOBAL_PARTICLES,
     MCL_MAX_GRID_CELLS,
 };
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::FitTracker;
-use crate::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
-use crate::particles::Headings;
-use crate::resampling::ResamplePolicy;
-use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
+use crate::sensor_models::beam_model::{beam_probability, cast_rays, BeamModelParams};
+use crate::sensor_models::likelihood_field::{
+    validate_grid, LikelihoodField, LikelihoodFieldParams,
+};
+use crate::sensor_models::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -305,7 +307,7 @@ impl MclParams {
 }
 
 /// Where the robot may be at the start (defined with the steps every filter shares).
-pub use crate::initial_belief::InitialBelief;
+pub use crate::filter::initial_belief::InitialBelief;
 
 /// Monte Carlo localization on an occupancy grid with a laser.
 #[derive(Debug, Clone)]

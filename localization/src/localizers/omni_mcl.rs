@@ -21,17 +21,17 @@
 //! resetting" / mixture proposal of Lenser and Veloso, Thrun et al.): 001's map gives that
 //! proposal for free, since the energy at every node and rotation is one table lookup.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::limits::check_positive;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::omni_map::OmniMap;
-use crate::particle_filter::{
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::particle_filter::{
     core_in_field, intensity_from, FilterCore, MeasurementModel, ParticleFilter,
 };
-use crate::particles::{ReadingCounts, ReadingTally};
-use crate::resampling::{injection_count, Injection, ResamplePolicy};
+use crate::filter::particles::{ReadingCounts, ReadingTally};
+use crate::filter::resampling::{injection_count, Injection, ResamplePolicy};
+use crate::limits::check_positive;
+use crate::localizers::mcl::InitialBelief;
+use crate::maps::omni_map::OmniMap;
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -75,8 +75,8 @@ impl Default for OmniMclParams {
 
 impl OmniMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         if let Some(s) = self.sigma {
             check_positive("sigma", s)?;
         }
@@ -302,8 +302,8 @@ impl MeasurementModel for OmniMcl {
 mod tests {
     use super::*;
     use crate::localizer::{Localizer, OdometryDelta};
-    use crate::omni_map::tests::panorama_of;
-    use crate::omni_map::{shift_columns, OmniMapParams};
+    use crate::maps::omni_map::tests::panorama_of;
+    use crate::maps::omni_map::{shift_columns, OmniMapParams};
     use atrium_robots::Mount3;
 
     /// A synthetic panorama of four posts seen from (x, y) with heading `theta`.

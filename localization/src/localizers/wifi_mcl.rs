@@ -20,15 +20,15 @@
 //! A particle's likelihood costs one 4 × 4 stencil plus 16 node reads per access point,
 //! independent of the number of training samples.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::free_space::FreeSpace;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
-use crate::resampling::Injection;
-use crate::wifi_graph::{WifiGraph, AP_CHUNK};
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::{per_unit_log_mean, FitTracker};
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::resampling::Injection;
+use crate::localizers::mcl::InitialBelief;
+use crate::maps::free_space::FreeSpace;
+use crate::maps::wifi_graph::{WifiGraph, AP_CHUNK};
 use atrium_robots::{Pose2, Reading, WifiScan};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -57,7 +57,7 @@ pub struct WifiMclParams {
     /// from a wrong global fix). Default 0.
     pub random_fraction: f64,
     /// Keep the particles in the building's free space, as the graph-constrained WiFi
-    /// localizer of 004 §2.3 does ([`crate::free_space`]): a particle whose motion ends in a
+    /// localizer of 004 §2.3 does ([`crate::maps::free_space`]): a particle whose motion ends in a
     /// wall or outside the building is weighted down by [`OFF_MAP_WEIGHT`] and put back where
     /// it came from (and see `walls`). Default true; false is the unconstrained filter (for
     /// comparison).
@@ -106,14 +106,14 @@ impl Default for WifiMclParams {
 
 impl WifiMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
         crate::limits::check_count_min1(
             "global_particles",
             self.global_particles,
             crate::limits::MAX_GLOBAL_PARTICLES,
             "MAX_GLOBAL_PARTICLES",
         )?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
                 "outlier must be within (0, 1), got {}",
@@ -495,9 +495,9 @@ impl MeasurementModel for WifiMcl {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gp::SeKernel;
     use crate::localizer::{Localizer, OdometryDelta};
-    use crate::wifi_graph::GraphAp;
+    use crate::maps::wifi_graph::GraphAp;
+    use crate::maths::gp::SeKernel;
     use atrium_robots::WifiReading;
 
     /// Four APs at the corners of a 20 × 20 m room, log-distance means on a 1 m graph.

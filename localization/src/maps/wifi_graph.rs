@@ -1,6 +1,6 @@
 //! The Gaussian-process-learnt WiFi graph of [004] §2.3: for every access
 //! point, a GP (squared-exponential kernel plus noise, hyperparameters by marginal likelihood,
-//! see [`crate::gp`]) learnt offline from (position, scan) samples collected while driving,
+//! see [`crate::maths::gp`]) learnt offline from (position, scan) samples collected while driving,
 //! evaluated at the nodes of a regular graph (mean and variance per node), and bicubically
 //! interpolated at run time (§2.3: "WiFi mean and variance at locations during run time are
 //! estimated by bicubic interpolation across nodes of the graph").
@@ -14,13 +14,13 @@
 //! training samples.
 
 use crate::error::LocalizationError;
-use crate::gp::{
-    bin_samples, bin_values, fit_hyperparameters, HyperOptions, LocalGp, LocalPosterior, SeKernel,
-    SpatialIndex,
-};
 use crate::limits::{
     check_count, Lattice, GP_MAX_BLOCKS, GP_MAX_BLOCK_SIZE, GP_MAX_ITERATIONS,
     WIFI_GRAPH_MAX_VALUES,
+};
+use crate::maths::gp::{
+    bin_samples, bin_values, fit_hyperparameters, HyperOptions, LocalGp, LocalPosterior, SeKernel,
+    SpatialIndex,
 };
 use atrium_robots::WifiScan;
 use serde::{Deserialize, Serialize};
@@ -32,7 +32,7 @@ use std::path::Path;
 pub struct WifiGraphParams {
     /// Distance between graph nodes, m. Default 1.0.
     pub node_spacing: f64,
-    /// Side of the bins samples are grouped into (see [`crate::gp`]), m. Default 0.5.
+    /// Side of the bins samples are grouped into (see [`crate::maths::gp`]), m. Default 0.5.
     pub bin_m: f64,
     /// Nodes per side of a block sharing one local GP. Default 3.
     pub block: usize,
