@@ -6,7 +6,7 @@
 //! degree-wide basin a sharp laser model leaves around the true pose ([Thrun 2001] §3;
 //! [Thrun 2005] §8.3.5: particles drawn in proportion to the measurement likelihood).
 
-use crate::likelihood_field::LikelihoodField;
+use crate::sensor_models::likelihood_field::LikelihoodField;
 use atrium_robots::{normalize_angle, Pose2};
 
 mod avx2;
@@ -97,15 +97,15 @@ impl CoarseDistance {
             inv_resolution: 1.0 / res,
             width,
             height,
-            avx2: crate::simd::avx2_available() && dist.len() <= i32::MAX as usize,
+            avx2: crate::sensor_models::simd::avx2_available() && dist.len() <= i32::MAX as usize,
             dist,
         }
     }
 
     /// The distances as the AVX2 kernel reads them.
     #[cfg(target_arch = "x86_64")]
-    fn table(&self) -> crate::simd::GridTable<'_> {
-        crate::simd::GridTable {
+    fn table(&self) -> crate::sensor_models::simd::GridTable<'_> {
+        crate::sensor_models::simd::GridTable {
             origin: self.origin,
             inv_resolution: self.inv_resolution,
             width: self.width,
@@ -268,7 +268,7 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::likelihood_field::{tests::field_where, LikelihoodField};
+    use crate::sensor_models::likelihood_field::{tests::field_where, LikelihoodField};
 
     /// A 6 m × 4 m room of 0.02 m cells, walls one cell thick on every side, and a pillar
     /// 0.4 m square off-centre so that the room has one pose that fits.

@@ -65,7 +65,10 @@ pub enum PoseGraphError {
     #[error("{what} is not finite")]
     NotFinite { what: String },
     #[error("edge {edge}: the information matrix is not symmetric positive definite: {reason}")]
-    Information { edge: usize, reason: String },
+    Information {
+        edge: usize,
+        reason: InformationDefect,
+    },
     #[error("node {node} is not connected to node 0 by any chain of edges")]
     Disconnected { node: usize },
     #[error(
@@ -73,6 +76,17 @@ pub enum PoseGraphError {
          {reason}"
     )]
     Singular { damping: f64, reason: String },
+}
+
+/// What is wrong with an edge's information matrix (the matrix is in the message).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InformationDefect {
+    #[error("not finite: {0:?}")]
+    NotFinite(Information),
+    #[error("not symmetric: {0:?}")]
+    NotSymmetric(Information),
+    #[error("not positive definite: {0:?}")]
+    NotPositiveDefinite(Information),
 }
 
 /// A pose graph: see the module documentation.
@@ -282,15 +296,15 @@ fn next_damping(lambda: f64) -> f64 {
 }
 
 /// Finite, symmetric (to 1e-9 relative) and positive definite (Cholesky pivots > 0).
-fn check_information(m: &Information) -> Result<(), String> {
+fn check_information(m: &Information) -> Result<(), InformationDefect> {
     if m.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(format!("not finite: {m:?}"));
+        return Err(InformationDefect::NotFinite(*m));
     }
     let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
     for r in 0..3 {
         for c in 0..r {
             if (m[r][c] - m[c][r]).abs() > 1e-9 * scale {
-                return Err(format!("not symmetric: {m:?}"));
+                return Err(InformationDefect::NotSymmetric(*m));
             }
         }
     }
@@ -300,7 +314,7 @@ fn check_information(m: &Information) -> Result<(), String> {
             let s = m[r][c] - (0..c).map(|k| l[r][k] * l[c][k]).sum::<f64>();
             if r == c {
                 if s.is_nan() || s <= 1e-12 * scale {
-                    return Err(format!("not positive definite: {m:?}"));
+                    return Err(InformationDefect::NotPositiveDefinite(*m));
                 }
                 l[r][c] = s.sqrt();
             } else {

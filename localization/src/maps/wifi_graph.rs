@@ -1,6 +1,6 @@
 //! The Gaussian-process-learnt WiFi graph of [004] §2.3: for every access
 //! point, a GP (squared-exponential kernel plus noise, hyperparameters by marginal likelihood,
-//! see [`crate::gp`]) learnt offline from (position, scan) samples collected while driving,
+//! see [`crate::maths::gp`]) learnt offline from (position, scan) samples collected while driving,
 //! evaluated at the nodes of a regular graph (mean and variance per node), and bicubically
 //! interpolated at run time (§2.3: "WiFi mean and variance at locations during run time are
 //! estimated by bicubic interpolation across nodes of the graph").
@@ -14,13 +14,13 @@
 //! training samples.
 
 use crate::error::LocalizationError;
-use crate::gp::{
-    bin_samples, bin_values, fit_hyperparameters, HyperOptions, LocalGp, LocalPosterior, SeKernel,
-    SpatialIndex,
-};
 use crate::limits::{
     check_count, Lattice, GP_MAX_BLOCKS, GP_MAX_BLOCK_SIZE, GP_MAX_ITERATIONS,
     WIFI_GRAPH_MAX_VALUES,
+};
+use crate::maths::gp::{
+    bin_samples, bin_values, fit_hyperparameters, HyperOptions, LocalGp, LocalPosterior, SeKernel,
+    SpatialIndex,
 };
 use atrium_robots::WifiScan;
 use serde::{Deserialize, Serialize};
@@ -32,7 +32,7 @@ use std::path::Path;
 pub struct WifiGraphParams {
     /// Distance between graph nodes, m. Default 1.0.
     pub node_spacing: f64,
-    /// Side of the bins samples are grouped into (see [`crate::gp`]), m. Default 0.5.
+    /// Side of the bins samples are grouped into (see [`crate::maths::gp`]), m. Default 0.5.
     pub bin_m: f64,
     /// Nodes per side of a block sharing one local GP. Default 3.
     pub block: usize,
@@ -404,55 +404,77 @@ impl WifiGraph {
             mean,
             var,
         };
-        g.check().map_err(LocalizationError::InvalidParameter)?;
+        g.check()
+            .map_err(|e| LocalizationError::InvalidParameter(e.to_string()))?;
         Ok(g)
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), GraphFieldError> {
         if self.format != FORMAT || self.version != VERSION {
-            return Err(format!(
-                "format: expected {FORMAT:?} version {VERSION}, got {:?} version {}",
-                self.format, self.version
+            return Err(GraphFieldError::new(
+                "format",
+                format!(
+                    "expected {FORMAT:?} version {VERSION}, got {:?} version {}",
+                    self.format, self.version
+                ),
             ));
         }
         if !(self.spacing.is_finite() && self.spacing > 0.0) {
-            return Err(format!("spacing: must be > 0, got {}", self.spacing));
+            return Err(GraphFieldError::new(
+                "spacing",
+                format!("must be > 0, got {}", self.spacing),
+            ));
         }
         if self.width < 4 || self.height < 4 {
-            return Err(format!(
-                "width, height: need at least 4 × 4 nodes, got {} × {}",
-                self.width, self.height
+            return Err(GraphFieldError::new(
+                "width, height",
+                format!(
+                    "need at least 4 × 4 nodes, got {} × {}",
+                    self.width, self.height
+                ),
             ));
         }
         if !(self.origin[0].is_finite() && self.origin[1].is_finite()) {
-            return Err(format!("origin: must be finite, got {:?}", self.origin));
+            return Err(GraphFieldError::new(
+                "origin",
+                format!("must be finite, got {:?}", self.origin),
+            ));
         }
         if self.aps.is_empty() {
-            return Err("aps: no access point".into());
+            return Err(GraphFieldError::new("aps", "no access point"));
         }
         let n = self.width.checked_mul(self.height);
         let want = n.and_then(|n| n.checked_mul(self.aps.len()));
         let (Some(n), Some(want)) = (n, want) else {
-            return Err(format!(
-                "width, height: {} × {} nodes × {} access points overflow",
-                self.width,
-                self.height,
-                self.aps.len()
+            return Err(GraphFieldError::new(
+                "width, height",
+                format!(
+                    "{} × {} nodes × {} access points overflow",
+                    self.width,
+                    self.height,
+                    self.aps.len()
+                ),
             ));
         };
         if self.mean.len() != want || self.var.len() != want || self.free.len() != n {
-            return Err(format!(
-                "mean, var, free: expected {want}, {want} and {n} values, got {}, {} and {}",
-                self.mean.len(),
-                self.var.len(),
-                self.free.len()
+            return Err(GraphFieldError::new(
+                "mean, var, free",
+                format!(
+                    "expected {want}, {want} and {n} values, got {}, {} and {}",
+                    self.mean.len(),
+                    self.var.len(),
+                    self.free.len()
+                ),
             ));
         }
         if let Some(k) = self.mean.iter().position(|v| !v.is_finite()) {
-            return Err(format!("mean[{k}]: not finite"));
+            return Err(GraphFieldError::new(format!("mean[{k}]"), "not finite"));
         }
         if let Some(k) = self.var.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(format!("var[{k}]: must be finite and >= 0"));
+            return Err(GraphFieldError::new(
+                format!("var[{k}]"),
+                "must be finite and >= 0",
+            ));
         }
         for (i, ap) in self.aps.iter().enumerate() {
             let k = ap.kernel;
@@ -461,8 +483,9 @@ impl WifiGraph {
                 .all(|v| v.is_finite())
                 || k.noise_sd <= 0.0
             {
-                return Err(format!(
-                    "aps[{i}]: kernel and prior mean must be finite, noise_sd > 0"
+                return Err(GraphFieldError::new(
+                    format!("aps[{i}]"),
+                    "kernel and prior mean must be finite, noise_sd > 0",
                 ));
             }
         }
@@ -662,6 +685,24 @@ impl WifiGraph {
             .map_err(|e| format!("{}: not a WiFi graph: {e}", path.display()))?;
         g.check().map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(g)
+    }
+}
+
+/// A field of a WiFi graph (built or read from a file) that is not valid: its name (with the
+/// index, `mean[3]`) and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct GraphFieldError {
+    pub field: String,
+    pub reason: String,
+}
+
+impl GraphFieldError {
+    fn new(field: impl Into<String>, reason: impl Into<String>) -> GraphFieldError {
+        GraphFieldError {
+            field: field.into(),
+            reason: reason.into(),
+        }
     }
 }
 

@@ -11,14 +11,16 @@
 //! particles, and the likelihood has an outlier floor so that one odd reading cannot wipe out
 //! the right hypothesis.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::particle_filter::{
+    core_in_field, intensity_from, FilterCore, MeasurementModel, ParticleFilter,
+};
+use crate::filter::particles::{ReadingCounts, ReadingTally};
+use crate::filter::resampling::ResamplePolicy;
 use crate::limits::check_positive;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::particle_filter::{core_in_field, intensity_from, FilterCore, ParticleFilter};
-use crate::particles::{ReadingCounts, ReadingTally};
-use crate::resampling::ResamplePolicy;
+use crate::localizers::mcl::InitialBelief;
 use atrium_robots::{IntensityImage, Reading};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -237,8 +239,8 @@ impl Default for CeilingMclParams {
 
 impl CeilingMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         for (name, v) in [("sigma", self.sigma), ("range", self.range)] {
             check_positive(name, v)?;
         }
@@ -336,16 +338,7 @@ impl CeilingMcl {
                 "ceiling mcl: brightness must be finite, got {z}"
             )));
         }
-        let core = &mut self.core;
-        core.propagate(&self.motion);
-        let (params, map) = (&self.params, &self.map);
-        core.set
-            .reweight(|p, _| brightness_likelihood(params, map, z, p.x, p.y));
-        self.tally.updates += 1;
-        core.refresh_estimate(PointEstimate::WeightedMean);
-        if self.policy.due(core.set.ess(), core.set.len()) {
-            core.set.resample_plain(core.set.len(), &mut core.rng);
-        }
+        self.filter_update(&z);
         Ok(())
     }
 }
@@ -374,6 +367,29 @@ impl ParticleFilter for CeilingMcl {
             let outcome = reading_brightness(img).and_then(|z| self.observe(z));
             self.tally.settle(outcome, img.stamp, &mut self.core.carry);
         }
+    }
+}
+
+/// A brightness weighs each particle by the map's brightness above it; resampling waits for
+/// the effective sample size to fall (`resample_ess`).
+impl MeasurementModel for CeilingMcl {
+    type Observation = f64;
+
+    fn motion(&self) -> &OdometryMotionModel {
+        &self.motion
+    }
+
+    fn reweight(&mut self, &z: &f64) -> bool {
+        let (params, map) = (&self.params, &self.map);
+        self.core
+            .set
+            .reweight(|p, _| brightness_likelihood(params, map, z, p.x, p.y));
+        self.tally.updates += 1;
+        true
+    }
+
+    fn resample_policy(&self) -> ResamplePolicy {
+        self.policy
     }
 }
 

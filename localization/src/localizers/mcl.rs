@@ -2,22 +2,24 @@
 //! Table 8.2 and, for random-particle injection, Augmented MCL, Table 8.3) with the odometry
 //! motion model, the likelihood-field laser model, low-variance resampling and KLD-sampling.
 
-use crate::beam_model::{beam_probability, cast_rays, BeamModelParams};
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::initial_belief::{check_gaussian, gaussian_pose};
-use crate::kld::KldSampling;
-use crate::likelihood_field::{validate_grid, LikelihoodField, LikelihoodFieldParams};
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::{check_gaussian, gaussian_pose};
+use crate::filter::kld::KldSampling;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::FitTracker;
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::particles::Headings;
+use crate::filter::resampling::ResamplePolicy;
 use crate::limits::{
     check_count, check_count_min1, check_grid, check_positive, MAX_BEAMS, MAX_GLOBAL_PARTICLES,
     MCL_MAX_GRID_CELLS,
 };
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::FitTracker;
-use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
-use crate::particles::Headings;
-use crate::resampling::ResamplePolicy;
-use crate::scan_match::{refine, CoarseDistance, ScanMatchParams};
+use crate::sensor_models::beam_model::{beam_probability, cast_rays, BeamModelParams};
+use crate::sensor_models::likelihood_field::{
+    validate_grid, LikelihoodField, LikelihoodFieldParams,
+};
+use crate::sensor_models::scan_match::{refine, CoarseDistance, ScanMatchParams};
 use atrium_robots::{normalize_angle, LaserScan, Pose2, Reading};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -190,11 +192,7 @@ impl MclParams {
 
     /// When the filter resamples.
     pub fn resample_policy(&self) -> ResamplePolicy {
-        if self.resample_ess > 0.0 {
-            ResamplePolicy::BelowEss(self.resample_ess)
-        } else {
-            ResamplePolicy::EveryUpdate
-        }
+        ResamplePolicy::from_resample_ess(self.resample_ess)
     }
 
     /// Checks every field; the error names the field and the offending value.
@@ -309,7 +307,7 @@ impl MclParams {
 }
 
 /// Where the robot may be at the start (defined with the steps every filter shares).
-pub use crate::initial_belief::InitialBelief;
+pub use crate::filter::initial_belief::InitialBelief;
 
 /// Monte Carlo localization on an occupancy grid with a laser.
 #[derive(Debug, Clone)]
@@ -690,106 +688,6 @@ impl Mcl {
         }
         out
     }
-
-    fn sensor_update(&mut self, scan: &LaserScan) {
-        if needs_range(&self.field, scan.range_max) {
-            Arc::make_mut(&mut self.field).set_range_max(scan.range_max);
-        }
-        if let Some(cells) = self.seed_from_scan.take() {
-            if !self.seed_global_from_scan(scan, &cells) {
-                self.seed_from_scan = Some(cells);
-            }
-        }
-        if self.beams.select(scan, &self.params) == 0 {
-            return;
-        }
-        let model = ScanModel::new(&self.field, &self.params, &self.beams, scan);
-        let (scratch, mut nb) = (&mut self.beam_scratch, 0);
-        // Cleared so that the estimate below reuses only headings computed for these particles.
-        scratch.headings.clear();
-        self.core.set.reweight_log_columns(|x, y, th, out| {
-            nb = model.log_likelihoods(x, y, th, out, scratch);
-        });
-        let n = self.core.set.len();
-        let inv_nb = 1.0 / nb as f64;
-        let mut per_beam = 0.0;
-        for &l in self.core.set.log_likelihoods() {
-            per_beam += (l * inv_nb).exp();
-        }
-        self.fit
-            .record(self.core.carry.stamp, (per_beam / n as f64).ln());
-        // Augmented MCL bookkeeping (Table 8.3) on the per-beam geometric mean likelihood:
-        // the raw product swings by orders of magnitude with the number of valid beams in a
-        // scan, which would read as a sudden loss of track.
-        if self.params.recovery_enabled() {
-            let w_avg = per_beam / n as f64;
-            if self.w_slow == 0.0 {
-                self.w_slow = w_avg;
-                self.w_fast = w_avg;
-            } else {
-                self.w_slow += self.params.alpha_slow * (w_avg - self.w_slow);
-                self.w_fast += self.params.alpha_fast * (w_avg - self.w_fast);
-            }
-        }
-        // The particles have not moved since the sensor model took their headings' sines and
-        // cosines: the estimate reuses them.
-        let trig = self.beam_scratch.headings.trig(n);
-        self.core.refresh_estimate_with(self.params.estimate, trig);
-        if self.params.resample_policy().due(self.core.set.ess(), n) {
-            self.resample(scan);
-        }
-    }
-
-    /// KLD-sized low-variance resampling with random injection (see
-    /// [`ParticleSet::resample_kld`]), injected poses uniform or drawn from `scan` (see
-    /// `inject_from_scan`).
-    fn resample(&mut self, scan: &LaserScan) {
-        let p_inj = if self.free_cells.is_empty() {
-            0.0
-        } else {
-            self.injection_probability()
-        };
-        let mut endpoints = Beams::with_capacity(0);
-        let from_scan = self.params.inject_from_scan > 0
-            && p_inj > 0.0
-            && endpoints.select_endpoints(scan, self.params.max_beams) > 0;
-        let coarse = from_scan.then(|| self.coarse_distance());
-        let draw = PoseDraw {
-            cells: &self.free_cells,
-            origin: self.grid_origin,
-            resolution: self.grid_resolution,
-            width: self.grid_width,
-        };
-        let (field, samples) = (&*self.field, self.params.inject_from_scan);
-        // Ranked only when the first particle is injected (most updates inject none), and
-        // each candidate refined only when first drawn: an update that injects a few
-        // particles draws a few of the `keep` candidates. `refine` draws no random numbers,
-        // so the particles are those refining every candidate up front gives.
-        let mut matched: Vec<(Pose2, bool)> = Vec::new();
-        self.core
-            .set
-            .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
-                // Half stay uniform: where the scan is aliased (a corridor like others) the
-                // matched poses may all sit in the look-alikes.
-                let Some(coarse) = coarse.as_ref().filter(|_| rng.random::<bool>()) else {
-                    return draw.random(rng);
-                };
-                if matched.is_empty() {
-                    let keep = (samples / 100).max(1);
-                    matched = scan_candidates(coarse, &endpoints, &draw, samples, keep, rng)
-                        .into_iter()
-                        .map(|p| (p, false))
-                        .collect();
-                }
-                let j = rng.random_range(0..matched.len());
-                let (pose, refined) = &mut matched[j];
-                if !*refined {
-                    *pose = refine_on_scan(field, &endpoints, *pose);
-                    *refined = true;
-                }
-                *pose
-            });
-    }
 }
 
 /// Uniform poses over the given cells of a grid (see [`random_pose`]).
@@ -1085,8 +983,7 @@ impl ParticleFilter for Mcl {
             return;
         }
         self.updated_once = true;
-        self.core.propagate(&self.motion);
-        self.sensor_update(scan);
+        self.filter_update(scan);
     }
 
     fn fit_tracker(&self) -> Option<&FitTracker> {
@@ -1097,6 +994,125 @@ impl ParticleFilter for Mcl {
     fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         let n = self.core.set.len().max(self.params.min_particles);
         self.core.reseed(n, pose, sigma, self.params.estimate)
+    }
+}
+
+/// A laser scan weighs each particle by the likelihood field or the beam model over the
+/// selected beams; resampling is KLD-sized with Augmented MCL's injection.
+impl MeasurementModel for Mcl {
+    type Observation = LaserScan;
+
+    fn motion(&self) -> &OdometryMotionModel {
+        &self.motion
+    }
+
+    fn reweight(&mut self, scan: &LaserScan) -> bool {
+        if needs_range(&self.field, scan.range_max) {
+            Arc::make_mut(&mut self.field).set_range_max(scan.range_max);
+        }
+        if let Some(cells) = self.seed_from_scan.take() {
+            if !self.seed_global_from_scan(scan, &cells) {
+                self.seed_from_scan = Some(cells);
+            }
+        }
+        // Cleared so that the estimate reuses only headings computed for these particles.
+        self.beam_scratch.headings.clear();
+        if self.beams.select(scan, &self.params) == 0 {
+            return false;
+        }
+        let model = ScanModel::new(&self.field, &self.params, &self.beams, scan);
+        let (scratch, mut nb) = (&mut self.beam_scratch, 0);
+        self.core.set.reweight_log_columns(|x, y, th, out| {
+            nb = model.log_likelihoods(x, y, th, out, scratch);
+        });
+        let n = self.core.set.len();
+        let inv_nb = 1.0 / nb as f64;
+        let mut per_beam = 0.0;
+        for &l in self.core.set.log_likelihoods() {
+            per_beam += (l * inv_nb).exp();
+        }
+        self.fit
+            .record(self.core.carry.stamp, (per_beam / n as f64).ln());
+        // Augmented MCL bookkeeping (Table 8.3) on the per-beam geometric mean likelihood:
+        // the raw product swings by orders of magnitude with the number of valid beams in a
+        // scan, which would read as a sudden loss of track.
+        if self.params.recovery_enabled() {
+            let w_avg = per_beam / n as f64;
+            if self.w_slow == 0.0 {
+                self.w_slow = w_avg;
+                self.w_fast = w_avg;
+            } else {
+                self.w_slow += self.params.alpha_slow * (w_avg - self.w_slow);
+                self.w_fast += self.params.alpha_fast * (w_avg - self.w_fast);
+            }
+        }
+        true
+    }
+
+    fn point_estimate(&self) -> PointEstimate {
+        self.params.estimate
+    }
+
+    fn resample_policy(&self) -> ResamplePolicy {
+        self.params.resample_policy()
+    }
+
+    /// The estimate of [`MeasurementModel::point_estimate`]; the particles have not moved
+    /// since the sensor model took their headings' sines and cosines, so it reuses them.
+    fn refresh_estimate(&mut self) {
+        let trig = self.beam_scratch.headings.trig(self.core.set.len());
+        self.core.refresh_estimate_with(self.params.estimate, trig);
+    }
+
+    /// KLD-sized low-variance resampling with random injection (see
+    /// [`ParticleSet::resample_kld`]), injected poses uniform or drawn from `scan` (see
+    /// `inject_from_scan`).
+    fn resample(&mut self, scan: &LaserScan) {
+        let p_inj = if self.free_cells.is_empty() {
+            0.0
+        } else {
+            self.injection_probability()
+        };
+        let mut endpoints = Beams::with_capacity(0);
+        let from_scan = self.params.inject_from_scan > 0
+            && p_inj > 0.0
+            && endpoints.select_endpoints(scan, self.params.max_beams) > 0;
+        let coarse = from_scan.then(|| self.coarse_distance());
+        let draw = PoseDraw {
+            cells: &self.free_cells,
+            origin: self.grid_origin,
+            resolution: self.grid_resolution,
+            width: self.grid_width,
+        };
+        let (field, samples) = (&*self.field, self.params.inject_from_scan);
+        // Ranked only when the first particle is injected (most updates inject none), and
+        // each candidate refined only when first drawn: an update that injects a few
+        // particles draws a few of the `keep` candidates. `refine` draws no random numbers,
+        // so the particles are those refining every candidate up front gives.
+        let mut matched: Vec<(Pose2, bool)> = Vec::new();
+        self.core
+            .set
+            .resample_kld(&mut self.kld, p_inj, &mut self.core.rng, |rng| {
+                // Half stay uniform: where the scan is aliased (a corridor like others) the
+                // matched poses may all sit in the look-alikes.
+                let Some(coarse) = coarse.as_ref().filter(|_| rng.random::<bool>()) else {
+                    return draw.random(rng);
+                };
+                if matched.is_empty() {
+                    let keep = (samples / 100).max(1);
+                    matched = scan_candidates(coarse, &endpoints, &draw, samples, keep, rng)
+                        .into_iter()
+                        .map(|p| (p, false))
+                        .collect();
+                }
+                let j = rng.random_range(0..matched.len());
+                let (pose, refined) = &mut matched[j];
+                if !*refined {
+                    *pose = refine_on_scan(field, &endpoints, *pose);
+                    *refined = true;
+                }
+                *pose
+            });
     }
 }
 

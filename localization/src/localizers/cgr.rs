@@ -27,14 +27,15 @@
 //!   least `accept_sigma_xy` / `accept_sigma_theta` (slip the odometry model cannot see). A
 //!   refinement that pulls a sample somewhere the motion cannot explain is refused.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
-use crate::initial_belief::check_gaussian;
-use crate::line_map::{Correspondence, LineMap};
-use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::check_gaussian;
+use crate::filter::motion::{apply_increment, OdometryMotionModel};
+use crate::filter::observation_fit::{per_unit_log_mean, FitTracker};
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::resampling::ResamplePolicy;
+use crate::maps::line_map::{Correspondence, LineMap};
+use crate::sensor_models::fspf::{vertical_planes_on_floor, FspfParams, PlaneFilter};
 use atrium_robots::{normalize_angle, DepthImage, LaserScan, Pose2, Reading};
 use atrium_worlds::VectorMap;
 use rand::Rng;
@@ -93,6 +94,10 @@ pub struct CgrParams {
     /// the cluster of 0.5 m × 10° bins with the most weight) or `"weighted_mean"` of the whole
     /// set, which lands between the modes of a split cloud ([004] §3's open-area errors).
     pub estimate: PointEstimate,
+    /// Resample only when the effective sample size falls below this fraction of the
+    /// particles; 0 (default) resamples after every update with observations, as [004]
+    /// §2.1 does. As MCL's `resample_ess`.
+    pub resample_ess: f64,
 }
 
 impl Default for CgrParams {
@@ -114,15 +119,21 @@ impl Default for CgrParams {
             max_normal_z: 0.2,
             normal_tolerance_deg: 30.0,
             estimate: PointEstimate::default(),
+            resample_ess: 0.0,
         }
     }
 }
 
 impl CgrParams {
+    /// When the filter resamples.
+    pub fn resample_policy(&self) -> ResamplePolicy {
+        ResamplePolicy::from_resample_ess(self.resample_ess)
+    }
+
     /// Checks every field; the message names the field and the value.
     pub fn validate(&self) -> Result<(), String> {
         check_count_min1("particles", self.particles, MAX_PARTICLES, "MAX_PARTICLES")?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         check_count(
             "refinements",
             self.refinements,
@@ -159,6 +170,12 @@ impl CgrParams {
             return Err(format!(
                 "normal_tolerance_deg must be in (0, 90], got {}",
                 self.normal_tolerance_deg
+            ));
+        }
+        if !(self.resample_ess.is_finite() && (0.0..=1.0).contains(&self.resample_ess)) {
+            return Err(format!(
+                "resample_ess must be a fraction in [0, 1], got {}",
+                self.resample_ess
             ));
         }
         Ok(())
@@ -221,7 +238,7 @@ struct Matched {
 /// A CGR particle filter on a vector map.
 #[derive(Debug, Clone)]
 pub struct Cgr {
-    /// `particles` particles, resampled after every update with observations.
+    /// `particles` particles, resampled (by `resample_ess`) after updates with observations.
     core: FilterCore,
     params: CgrParams,
     map: LineMap,
@@ -542,8 +559,10 @@ impl Cgr {
         Ok(())
     }
 
-    /// Steps 1–4 of CGR on the current observation.
-    fn cgr_update(&mut self) {
+    /// Steps 1–3 of CGR on the current observation and the importance weights of step 4
+    /// (its resampling is the recipe's, by `resample_ess`). False when the observation has
+    /// too few points: the particles then only moved.
+    fn cgr_update(&mut self) -> bool {
         let p = std::mem::take(&mut self.core.carry.pending);
         let moved = p.x != 0.0 || p.y != 0.0 || p.theta != 0.0;
         let inc = self.motion.decompose(&Pose2::default(), &p);
@@ -626,21 +645,15 @@ impl Cgr {
             let eps_out = self.outlier_floor();
             self.fit
                 .record_blind(self.core.carry.stamp, eps_out.ln() - (1.0 + eps_out).ln());
-            // The particles moved and `pending` was consumed: the estimate must follow them,
-            // or it freezes wherever the sensor last saw something (open areas, 004 §3).
-            self.core.refresh_estimate(self.params.estimate);
-            return;
+            return false;
         }
-        // Step 4: importance weights (normalised in log space) and resampling.
+        // Step 4: importance weights (normalised in log space).
         self.fit.record(
             self.core.carry.stamp,
             per_unit_log_mean(self.core.set.log_likelihoods(), self.obs.len()),
         );
         self.core.set.weigh_by_log_likelihoods();
-        self.core.refresh_estimate(self.params.estimate);
-        self.core
-            .set
-            .resample_plain(self.core.set.len(), &mut self.core.rng);
+        true
     }
 }
 
@@ -665,7 +678,7 @@ impl ParticleFilter for Cgr {
             }
             _ => return,
         }
-        self.cgr_update();
+        self.filter_update(&());
     }
 
     fn fit_tracker(&self) -> Option<&FitTracker> {
@@ -675,6 +688,34 @@ impl ParticleFilter for Cgr {
     fn reseed(&mut self, pose: Pose2, sigma: [f64; 3]) -> bool {
         self.core
             .reseed(self.core.set.len(), pose, sigma, self.params.estimate)
+    }
+}
+
+/// CGR's observation is the points [`Cgr::observe_laser`] or [`Cgr::observe_depth`] loaded
+/// into the filter, where the matching reads them.
+impl MeasurementModel for Cgr {
+    type Observation = ();
+
+    fn motion(&self) -> &OdometryMotionModel {
+        &self.motion
+    }
+
+    /// Nothing here: CGR moves each particle in [`MeasurementModel::reweight`] (step 1), its
+    /// motion draws interleaved with the acceptance test's; and with an observation too
+    /// small to use, the particles still move there (the estimate then follows them instead
+    /// of freezing wherever the sensor last saw something, open areas in 004 §3).
+    fn propagate(&mut self) {}
+
+    fn reweight(&mut self, _: &()) -> bool {
+        self.cgr_update()
+    }
+
+    fn point_estimate(&self) -> PointEstimate {
+        self.params.estimate
+    }
+
+    fn resample_policy(&self) -> ResamplePolicy {
+        self.params.resample_policy()
     }
 }
 
@@ -790,7 +831,7 @@ mod tests {
             // scenario tests' job).
             let pts = scan_points(&map, truth);
             c.set_observation(&pts, None);
-            c.cgr_update();
+            c.filter_update(&());
         }
         let est = c.estimate().pose;
         assert!(est.distance(&truth) < 0.03, "{est:?} vs {truth:?}");

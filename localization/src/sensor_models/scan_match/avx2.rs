@@ -3,7 +3,7 @@
 //! every cost is the scalar one bit for bit.
 
 #[cfg(target_arch = "x86_64")]
-use crate::simd::{within, GridTable};
+use crate::sensor_models::simd::{within, GridTable};
 use atrium_robots::Pose2;
 
 /// `out[i]` = the truncated cost of the endpoints from `poses[i]`, for the poses in whole

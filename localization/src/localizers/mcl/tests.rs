@@ -256,7 +256,7 @@ fn resampling_below_an_ess_fraction_still_tracks() {
     assert!(*errors.last().unwrap() < 0.1, "{errors:?}");
     assert_eq!(
         MclParams::default().resample_policy(),
-        crate::resampling::ResamplePolicy::EveryUpdate
+        crate::filter::resampling::ResamplePolicy::EveryUpdate
     );
 }
 

@@ -9,7 +9,7 @@
 //! Ray casting sphere-traces the likelihood field's distance transform: from the sensor the
 //! ray advances by the distance to the nearest surface, which can never step through one.
 
-use crate::likelihood_field::LikelihoodField;
+use crate::sensor_models::likelihood_field::LikelihoodField;
 use std::ops::ControlFlow;
 
 /// Weights and shapes of the four components.
@@ -260,7 +260,7 @@ mod tests {
         // 4 m × 2 m at 0.05 m, walls one cell thick on every side, plus a 0.5 m thick wall
         // at x ∈ [3.0, 3.5).
         let (w, h) = (80, 40);
-        crate::likelihood_field::tests::field_where(w, h, 0.05, |i, j| {
+        crate::sensor_models::likelihood_field::tests::field_where(w, h, 0.05, |i, j| {
             let edge = i == 0 || j == 0 || i == w - 1 || j == h - 1;
             edge || (60..70).contains(&i)
         })

@@ -20,15 +20,15 @@
 //! A particle's likelihood costs one 4 × 4 stencil plus 16 node reads per access point,
 //! independent of the number of training samples.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::free_space::FreeSpace;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::{per_unit_log_mean, FitTracker};
-use crate::particle_filter::{core_in_field, FilterCore, ParticleFilter};
-use crate::resampling::Injection;
-use crate::wifi_graph::{WifiGraph, AP_CHUNK};
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::{per_unit_log_mean, FitTracker};
+use crate::filter::particle_filter::{core_in_field, FilterCore, MeasurementModel, ParticleFilter};
+use crate::filter::resampling::Injection;
+use crate::localizers::mcl::InitialBelief;
+use crate::maps::free_space::FreeSpace;
+use crate::maps::wifi_graph::{WifiGraph, AP_CHUNK};
 use atrium_robots::{Pose2, Reading, WifiScan};
 use atrium_worlds::geometry::point_in_polygon;
 use atrium_worlds::{Cell, OccupancyGrid};
@@ -57,7 +57,7 @@ pub struct WifiMclParams {
     /// from a wrong global fix). Default 0.
     pub random_fraction: f64,
     /// Keep the particles in the building's free space, as the graph-constrained WiFi
-    /// localizer of 004 §2.3 does ([`crate::free_space`]): a particle whose motion ends in a
+    /// localizer of 004 §2.3 does ([`crate::maps::free_space`]): a particle whose motion ends in a
     /// wall or outside the building is weighted down by [`OFF_MAP_WEIGHT`] and put back where
     /// it came from (and see `walls`). Default true; false is the unconstrained filter (for
     /// comparison).
@@ -106,14 +106,14 @@ impl Default for WifiMclParams {
 
 impl WifiMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
         crate::limits::check_count_min1(
             "global_particles",
             self.global_particles,
             crate::limits::MAX_GLOBAL_PARTICLES,
             "MAX_GLOBAL_PARTICLES",
         )?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         if !(self.outlier > 0.0 && self.outlier < 1.0) {
             return Err(format!(
                 "outlier must be within (0, 1), got {}",
@@ -346,82 +346,6 @@ impl WifiMcl {
         }
         (l, var_sum / self.prior_variance.max(f64::MIN_POSITIVE))
     }
-
-    /// The likelihood of `scan` at every particle, into the weights; then resampling.
-    fn sensor_update(&mut self, scan: &WifiScan) {
-        self.load_scan(scan);
-        let n = self.core.set.len();
-        let limit = self.params.max_untrained;
-        for i in 0..n {
-            let p = self.core.set.pose(i);
-            let (l, untrained) = self.log_likelihood_and_untrained(p.x, p.y);
-            self.core.set.log_likelihoods_mut()[i] = self.params.exponent * l;
-            // Off the graph counts as off the map (applied below, after the fit).
-            if limit < 1.0 && untrained > limit {
-                self.off_map[i] = true;
-            }
-        }
-        self.fit.record(
-            self.core.carry.stamp,
-            per_unit_log_mean(self.core.set.log_likelihoods(), self.z.len()),
-        );
-        // The map's verdict on the last motion (after the fit: that measures the scan alone).
-        let off_map_log = OFF_MAP_WEIGHT.ln();
-        let logw = self.core.set.log_likelihoods_mut();
-        for (l, off) in logw.iter_mut().zip(&mut self.off_map[..n]) {
-            if *off {
-                *l += off_map_log;
-                *off = false;
-            }
-        }
-        self.core.set.weigh_by_log_likelihoods();
-        self.core.refresh_estimate(PointEstimate::WeightedMean);
-        let draw = RandomPoses {
-            free: &self.free,
-            step: self.free_step,
-            space: self.params.constrain_to_map.then_some(&self.space),
-        };
-        let inject = match self.params.random_fraction {
-            p if p > 0.0 => Injection::Probability(p),
-            _ => Injection::None,
-        };
-        self.core
-            .set
-            .resample(self.params.particles, inject, &mut self.core.rng, |rng| {
-                draw.draw(rng)
-            });
-    }
-
-    fn apply_motion(&mut self) {
-        let constrain = self.params.constrain_to_map && !self.space.is_empty();
-        let (space, walls, off_map) = (&self.space, self.params.walls, &mut self.off_map);
-        self.core.set.propagate_constrained(
-            &self.motion,
-            &mut self.core.carry.pending,
-            &mut self.core.rng,
-            |i, [x0, y0], [mut x, mut y, th]| {
-                // 004 §2.3: the robot is constrained to the graph. A particle that went
-                // through a wall (with `walls`) is weighted down at the next scan; one that
-                // ended in a wall or out of the building is also put back inside (out there
-                // the graph is clamped, the likelihood flat, and nothing would ever pull it
-                // back): where it came from, or, if that was not inside either, the nearest
-                // free position. (The nearest free position of a particle in a wall can be
-                // on the wall's far side: a leak through which clouds wandered into rooms.)
-                if constrain && walls && !space.path_clear([x0, y0], [x, y]) {
-                    off_map[i] = true;
-                }
-                if constrain && !space.contains(x, y) {
-                    off_map[i] = true;
-                    if space.contains(x0, y0) {
-                        (x, y) = (x0, y0);
-                    } else if let Some(q) = space.project(x, y) {
-                        (x, y) = (q[0], q[1]);
-                    }
-                }
-                [x, y, th]
-            },
-        );
-    }
 }
 
 /// Random particles of the WiFi filter: a free position, jittered uniformly within half the
@@ -455,8 +379,7 @@ impl ParticleFilter for WifiMcl {
     fn take_reading(&mut self, reading: &Reading) {
         if let Reading::Wifi(scan) = reading {
             self.core.carry.observed_at(scan.stamp);
-            self.apply_motion();
-            self.sensor_update(scan);
+            self.filter_update(scan);
         }
     }
 
@@ -477,12 +400,104 @@ impl ParticleFilter for WifiMcl {
     }
 }
 
+/// A WiFi scan weighs each particle by the graph's RSSI distributions at its position,
+/// tempered by `exponent`, and down by `OFF_MAP_WEIGHT` if its last motion left the map.
+impl MeasurementModel for WifiMcl {
+    type Observation = WifiScan;
+
+    fn motion(&self) -> &OdometryMotionModel {
+        &self.motion
+    }
+
+    /// The odometry motion model, constrained to the building's free space
+    /// (`constrain_to_map`); a particle that crossed a wall is marked for the next weighing.
+    fn propagate(&mut self) {
+        let constrain = self.params.constrain_to_map && !self.space.is_empty();
+        let (space, walls, off_map) = (&self.space, self.params.walls, &mut self.off_map);
+        self.core.set.propagate_constrained(
+            &self.motion,
+            &mut self.core.carry.pending,
+            &mut self.core.rng,
+            |i, [x0, y0], [mut x, mut y, th]| {
+                // 004 §2.3: the robot is constrained to the graph. A particle that went
+                // through a wall (with `walls`) is weighted down at the next scan; one that
+                // ended in a wall or out of the building is also put back inside (out there
+                // the graph is clamped, the likelihood flat, and nothing would ever pull it
+                // back): where it came from, or, if that was not inside either, the nearest
+                // free position. (The nearest free position of a particle in a wall can be
+                // on the wall's far side: a leak through which clouds wandered into rooms.)
+                if constrain && walls && !space.path_clear([x0, y0], [x, y]) {
+                    off_map[i] = true;
+                }
+                if constrain && !space.contains(x, y) {
+                    off_map[i] = true;
+                    if space.contains(x0, y0) {
+                        (x, y) = (x0, y0);
+                    } else if let Some(q) = space.project(x, y) {
+                        (x, y) = (q[0], q[1]);
+                    }
+                }
+                [x, y, th]
+            },
+        );
+    }
+
+    fn reweight(&mut self, scan: &WifiScan) -> bool {
+        self.load_scan(scan);
+        let n = self.core.set.len();
+        let limit = self.params.max_untrained;
+        for i in 0..n {
+            let p = self.core.set.pose(i);
+            let (l, untrained) = self.log_likelihood_and_untrained(p.x, p.y);
+            self.core.set.log_likelihoods_mut()[i] = self.params.exponent * l;
+            // Off the graph counts as off the map (applied below, after the fit).
+            if limit < 1.0 && untrained > limit {
+                self.off_map[i] = true;
+            }
+        }
+        self.fit.record(
+            self.core.carry.stamp,
+            per_unit_log_mean(self.core.set.log_likelihoods(), self.z.len()),
+        );
+        // The map's verdict on the last motion (after the fit: that measures the scan alone).
+        let off_map_log = OFF_MAP_WEIGHT.ln();
+        let logw = self.core.set.log_likelihoods_mut();
+        for (l, off) in logw.iter_mut().zip(&mut self.off_map[..n]) {
+            if *off {
+                *l += off_map_log;
+                *off = false;
+            }
+        }
+        self.core.set.weigh_by_log_likelihoods();
+        true
+    }
+
+    /// Low-variance resampling back to the tracking size (`particles`; a global belief
+    /// starts larger), each new particle a random one with probability `random_fraction`.
+    fn resample(&mut self, _scan: &WifiScan) {
+        let draw = RandomPoses {
+            free: &self.free,
+            step: self.free_step,
+            space: self.params.constrain_to_map.then_some(&self.space),
+        };
+        let inject = match self.params.random_fraction {
+            p if p > 0.0 => Injection::Probability(p),
+            _ => Injection::None,
+        };
+        self.core
+            .set
+            .resample(self.params.particles, inject, &mut self.core.rng, |rng| {
+                draw.draw(rng)
+            });
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gp::SeKernel;
     use crate::localizer::{Localizer, OdometryDelta};
-    use crate::wifi_graph::GraphAp;
+    use crate::maps::wifi_graph::GraphAp;
+    use crate::maths::gp::SeKernel;
     use atrium_robots::WifiReading;
 
     /// Four APs at the corners of a 20 × 20 m room, log-distance means on a 1 m graph.

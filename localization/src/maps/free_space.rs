@@ -45,152 +45,20 @@ impl FreeSpace {
     pub fn from_grid(grid: &OccupancyGrid) -> FreeSpace {
         let k = ((MASK_CELL / grid.resolution).floor() as usize).max(1);
         let res = k as f64 * grid.resolution;
-        let width = grid.width / k;
-        let height = grid.height / k;
-        // 0: blocked, 1: free (not yet reached from the border), 2: free, outside.
-        let mut state = vec![0u8; width * height];
-        for mj in 0..height {
-            for mi in 0..width {
-                let free = (0..k).all(|dj| {
-                    let row = (mj * k + dj) * grid.width;
-                    (0..k).all(|di| grid.cells[row + mi * k + di] == Cell::Free)
-                });
-                if free {
-                    state[mj * width + mi] = 1;
-                }
-            }
-        }
-        // Flood fill (4-connected) from every free border cell: the outside.
-        let mut stack: Vec<u32> = Vec::new();
-        let seed = |c: usize, state: &mut [u8], stack: &mut Vec<u32>| {
-            if state[c] == 1 {
-                state[c] = 2;
-                stack.push(c as u32);
-            }
-        };
-        for i in 0..width {
-            seed(i, &mut state, &mut stack);
-            seed(
-                (height.saturating_sub(1)) * width + i,
-                &mut state,
-                &mut stack,
-            );
-        }
-        for j in 0..height {
-            seed(j * width, &mut state, &mut stack);
-            seed(j * width + width.saturating_sub(1), &mut state, &mut stack);
-        }
-        while let Some(c) = stack.pop() {
-            let c = c as usize;
-            let (i, j) = (c % width, c / width);
-            if i > 0 {
-                seed(c - 1, &mut state, &mut stack);
-            }
-            if i + 1 < width {
-                seed(c + 1, &mut state, &mut stack);
-            }
-            if j > 0 {
-                seed(c - width, &mut state, &mut stack);
-            }
-            if j + 1 < height {
-                seed(c + width, &mut state, &mut stack);
-            }
-        }
-        let enclosed = state.contains(&1);
-        let inside: Vec<bool> = state
-            .iter()
-            .map(|&s| s == 1 || (!enclosed && s == 2))
-            .collect();
-
-        // Anchors and the nearest-anchor lookup over blocks of the mask.
+        let (width, height) = (grid.width / k, grid.height / k);
+        let inside = inside_mask(grid, k, width, height);
         let block = ((ANCHOR_SPACING / res).round() as usize).max(1);
-        let bw = width.div_ceil(block).max(1);
-        let bh = height.div_ceil(block).max(1);
-        let mut anchors = Vec::new();
-        let mut nearest = vec![u32::MAX; bw * bh];
-        for bj in 0..bh {
-            for bi in 0..bw {
-                let (ci, cj) = (bi * block + block / 2, bj * block + block / 2);
-                let mut best: Option<(usize, usize, usize)> = None;
-                for mj in bj * block..((bj + 1) * block).min(height) {
-                    for mi in bi * block..((bi + 1) * block).min(width) {
-                        if inside[mj * width + mi] {
-                            let d = mi.abs_diff(ci).pow(2) + mj.abs_diff(cj).pow(2);
-                            if best.is_none_or(|b| d < b.0) {
-                                best = Some((d, mi, mj));
-                            }
-                        }
-                    }
-                }
-                if let Some((_, mi, mj)) = best {
-                    nearest[bj * bw + bi] = anchors.len() as u32;
-                    anchors.push([
-                        grid.origin[0] + (mi as f64 + 0.5) * res,
-                        grid.origin[1] + (mj as f64 + 0.5) * res,
-                    ]);
-                }
-            }
-        }
-        // Nearest anchor of every block by propagating anchor ids between neighbours, each
-        // block keeping the candidate nearest (Euclidean) to its centre: two raster passes
-        // (down-right, then up-left), repeated once. This is the vector distance transform
-        // (Danielsson 1980); its rare errors are a fraction of a block.
-        let span = block as f64 * res;
-        let centre = |b: usize| {
-            [
-                grid.origin[0] + ((b % bw) as f64 + 0.5) * span,
-                grid.origin[1] + ((b / bw) as f64 + 0.5) * span,
-            ]
+        let blocks = Blocks {
+            origin: grid.origin,
+            res,
+            width,
+            height,
+            block,
+            bw: width.div_ceil(block).max(1),
+            bh: height.div_ceil(block).max(1),
         };
-        let dist2 = |b: usize, a: u32| {
-            let (c, p) = (centre(b), anchors[a as usize]);
-            (c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)
-        };
-        let relax = |b: usize, nb: usize, nearest: &mut [u32]| {
-            let cand = nearest[nb];
-            if cand != u32::MAX && (nearest[b] == u32::MAX || dist2(b, cand) < dist2(b, nearest[b]))
-            {
-                nearest[b] = cand;
-            }
-        };
-        if !anchors.is_empty() {
-            for _ in 0..2 {
-                for bj in 0..bh {
-                    for bi in 0..bw {
-                        let b = bj * bw + bi;
-                        if bi > 0 {
-                            relax(b, b - 1, &mut nearest);
-                        }
-                        if bj > 0 {
-                            relax(b, b - bw, &mut nearest);
-                            if bi > 0 {
-                                relax(b, b - bw - 1, &mut nearest);
-                            }
-                            if bi + 1 < bw {
-                                relax(b, b - bw + 1, &mut nearest);
-                            }
-                        }
-                    }
-                }
-                for bj in (0..bh).rev() {
-                    for bi in (0..bw).rev() {
-                        let b = bj * bw + bi;
-                        if bi + 1 < bw {
-                            relax(b, b + 1, &mut nearest);
-                        }
-                        if bj + 1 < bh {
-                            relax(b, b + bw, &mut nearest);
-                            if bi + 1 < bw {
-                                relax(b, b + bw + 1, &mut nearest);
-                            }
-                            if bi > 0 {
-                                relax(b, b + bw - 1, &mut nearest);
-                            }
-                        }
-                    }
-                }
-            }
-        }
+        let (anchors, mut nearest) = blocks.anchors(&inside);
+        blocks.propagate_nearest(&anchors, &mut nearest);
         FreeSpace {
             origin: grid.origin,
             res,
@@ -198,8 +66,8 @@ impl FreeSpace {
             height,
             inside,
             block,
-            bw,
-            bh,
+            bw: blocks.bw,
+            bh: blocks.bh,
             nearest,
             anchors,
         }
@@ -271,6 +139,191 @@ impl FreeSpace {
         let bi = cell(x, self.origin[0], self.bw);
         let bj = cell(y, self.origin[1], self.bh);
         Some(self.anchors[self.nearest[bj * self.bw + bi] as usize])
+    }
+}
+
+/// The inside mask of `grid` on cells of `k` × `k` grid cells (`width` × `height` of them):
+/// a mask cell is free only if every grid cell it covers is Free, and inside when it is free
+/// and not reached from the border (all free cells when none is enclosed).
+fn inside_mask(grid: &OccupancyGrid, k: usize, width: usize, height: usize) -> Vec<bool> {
+    // 0: blocked, 1: free (not yet reached from the border), 2: free, outside.
+    let mut state = vec![0u8; width * height];
+    for mj in 0..height {
+        for mi in 0..width {
+            let free = (0..k).all(|dj| {
+                let row = (mj * k + dj) * grid.width;
+                (0..k).all(|di| grid.cells[row + mi * k + di] == Cell::Free)
+            });
+            if free {
+                state[mj * width + mi] = 1;
+            }
+        }
+    }
+    // Flood fill (4-connected) from every free border cell: the outside.
+    let mut stack: Vec<u32> = Vec::new();
+    let seed = |c: usize, state: &mut [u8], stack: &mut Vec<u32>| {
+        if state[c] == 1 {
+            state[c] = 2;
+            stack.push(c as u32);
+        }
+    };
+    for i in 0..width {
+        seed(i, &mut state, &mut stack);
+        seed(
+            (height.saturating_sub(1)) * width + i,
+            &mut state,
+            &mut stack,
+        );
+    }
+    for j in 0..height {
+        seed(j * width, &mut state, &mut stack);
+        seed(j * width + width.saturating_sub(1), &mut state, &mut stack);
+    }
+    while let Some(c) = stack.pop() {
+        let c = c as usize;
+        let (i, j) = (c % width, c / width);
+        if i > 0 {
+            seed(c - 1, &mut state, &mut stack);
+        }
+        if i + 1 < width {
+            seed(c + 1, &mut state, &mut stack);
+        }
+        if j > 0 {
+            seed(c - width, &mut state, &mut stack);
+        }
+        if j + 1 < height {
+            seed(c + width, &mut state, &mut stack);
+        }
+    }
+    let enclosed = state.contains(&1);
+    state
+        .iter()
+        .map(|&s| s == 1 || (!enclosed && s == 2))
+        .collect()
+}
+
+/// The mask's lookup blocks: `block` mask cells a side, `bw` × `bh` of them.
+struct Blocks {
+    origin: [f64; 2],
+    res: f64,
+    width: usize,
+    height: usize,
+    block: usize,
+    bw: usize,
+    bh: usize,
+}
+
+impl Blocks {
+    /// Per block, the inside mask cell nearest its centre as an anchor; and per block the
+    /// index of its own anchor (`u32::MAX` for a block with none).
+    fn anchors(&self, inside: &[bool]) -> (Vec<[f64; 2]>, Vec<u32>) {
+        let Blocks {
+            origin,
+            res,
+            width,
+            height,
+            block,
+            bw,
+            bh,
+        } = *self;
+        let mut anchors = Vec::new();
+        let mut nearest = vec![u32::MAX; bw * bh];
+        for bj in 0..bh {
+            for bi in 0..bw {
+                let (ci, cj) = (bi * block + block / 2, bj * block + block / 2);
+                let mut best: Option<(usize, usize, usize)> = None;
+                for mj in bj * block..((bj + 1) * block).min(height) {
+                    for mi in bi * block..((bi + 1) * block).min(width) {
+                        if inside[mj * width + mi] {
+                            let d = mi.abs_diff(ci).pow(2) + mj.abs_diff(cj).pow(2);
+                            if best.is_none_or(|b| d < b.0) {
+                                best = Some((d, mi, mj));
+                            }
+                        }
+                    }
+                }
+                if let Some((_, mi, mj)) = best {
+                    nearest[bj * bw + bi] = anchors.len() as u32;
+                    anchors.push([
+                        origin[0] + (mi as f64 + 0.5) * res,
+                        origin[1] + (mj as f64 + 0.5) * res,
+                    ]);
+                }
+            }
+        }
+        (anchors, nearest)
+    }
+
+    /// Gives every block the anchor nearest its centre.
+    fn propagate_nearest(&self, anchors: &[[f64; 2]], nearest: &mut [u32]) {
+        let Blocks {
+            origin,
+            bw,
+            bh,
+            block,
+            res,
+            ..
+        } = *self;
+        // Nearest anchor of every block by propagating anchor ids between neighbours, each
+        // block keeping the candidate nearest (Euclidean) to its centre: two raster passes
+        // (down-right, then up-left), repeated once. This is the vector distance transform
+        // (Danielsson 1980); its rare errors are a fraction of a block.
+        let span = block as f64 * res;
+        let centre = |b: usize| {
+            [
+                origin[0] + ((b % bw) as f64 + 0.5) * span,
+                origin[1] + ((b / bw) as f64 + 0.5) * span,
+            ]
+        };
+        let dist2 = |b: usize, a: u32| {
+            let (c, p) = (centre(b), anchors[a as usize]);
+            (c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)
+        };
+        let relax = |b: usize, nb: usize, nearest: &mut [u32]| {
+            let cand = nearest[nb];
+            if cand != u32::MAX && (nearest[b] == u32::MAX || dist2(b, cand) < dist2(b, nearest[b]))
+            {
+                nearest[b] = cand;
+            }
+        };
+        if !anchors.is_empty() {
+            for _ in 0..2 {
+                for bj in 0..bh {
+                    for bi in 0..bw {
+                        let b = bj * bw + bi;
+                        if bi > 0 {
+                            relax(b, b - 1, nearest);
+                        }
+                        if bj > 0 {
+                            relax(b, b - bw, nearest);
+                            if bi > 0 {
+                                relax(b, b - bw - 1, nearest);
+                            }
+                            if bi + 1 < bw {
+                                relax(b, b - bw + 1, nearest);
+                            }
+                        }
+                    }
+                }
+                for bj in (0..bh).rev() {
+                    for bi in (0..bw).rev() {
+                        let b = bj * bw + bi;
+                        if bi + 1 < bw {
+                            relax(b, b + 1, nearest);
+                        }
+                        if bj + 1 < bh {
+                            relax(b, b + bw, nearest);
+                            if bi + 1 < bw {
+                                relax(b, b + bw + 1, nearest);
+                            }
+                            if bi > 0 {
+                                relax(b, b + bw - 1, nearest);
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -8,8 +8,8 @@
 //! Clusters are connected components of occupied histogram bins (x, y, θ; 26-neighbourhood,
 //! θ wrapping), the clustering amcl does on its kd-tree leaves.
 
-use crate::lattice::floor_i64;
-use crate::particles::{weighted_mean_covariance_of, HeadingTrig};
+use crate::filter::lattice::floor_i64;
+use crate::filter::particles::{weighted_mean_covariance_of, HeadingTrig};
 use atrium_robots::Pose2;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};

@@ -39,9 +39,9 @@
 //! Bad input never panics: non-finite odometry, a detection at zero or non-finite range, a
 //! singular or non-finite innovation covariance are skipped and counted in [`SlamIssues`].
 
-use crate::covariance_monitor::{CovarianceMonitor, MonitorParams};
+use crate::filter::motion::OdometryMotionModel;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
-use crate::motion::OdometryMotionModel;
+use crate::slam::covariance_monitor::{CovarianceMonitor, MonitorParams};
 use atrium_robots::{normalize_angle, LandmarkDetections, Pose2, Reading};
 use nalgebra::{DMatrix, Matrix3};
 use serde::{Deserialize, Serialize};

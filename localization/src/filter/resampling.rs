@@ -61,6 +61,16 @@ pub enum ResamplePolicy {
 }
 
 impl ResamplePolicy {
+    /// The policy of a `resample_ess` parameter: below that fraction of the particles, or
+    /// after every update when it is 0.
+    pub fn from_resample_ess(fraction: f64) -> ResamplePolicy {
+        if fraction > 0.0 {
+            ResamplePolicy::BelowEss(fraction)
+        } else {
+            ResamplePolicy::EveryUpdate
+        }
+    }
+
     /// Whether a set of `n` particles with effective sample size `ess` is due.
     pub fn due(&self, ess: f64, n: usize) -> bool {
         match *self {

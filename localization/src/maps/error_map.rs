@@ -269,39 +269,89 @@ impl ErrorMap {
     /// before anything is allocated); rows outside the declared grid, with a malformed or
     /// non-finite number, or whose counts overflow.
     pub fn from_csv(text: &str) -> Result<ErrorMap, ErrorMapParseError> {
-        let err = |line: usize, message: String| ErrorMapParseError { line, message };
         let mut lines = text.lines().enumerate();
-        let (_, head) = lines.next().ok_or_else(|| err(1, "empty file".into()))?;
+        let (_, head) = lines.next().ok_or_else(|| parse_error(1, "empty file"))?;
+        let grid = CsvGrid::parse(head)?;
+        match lines.next() {
+            Some((_, "localizer,i,j,x,y,mean_error,samples,sum")) => {}
+            _ => {
+                return Err(parse_error(
+                    2,
+                    "missing column header localizer,i,j,x,y,mean_error,samples,sum",
+                ))
+            }
+        }
+        let mut rows: Vec<CsvRow> = Vec::new();
+        let mut names: Vec<String> = Vec::new();
+        for (n, line) in lines {
+            if !line.trim().is_empty() {
+                rows.push(grid.row(n + 1, line, &mut names)?);
+            }
+        }
+        grid.accumulate(names, rows)
+    }
+}
+
+fn parse_error(line: usize, message: impl Into<String>) -> ErrorMapParseError {
+    ErrorMapParseError {
+        line,
+        message: message.into(),
+    }
+}
+
+/// The grid an error map's CSV header declares, checked against [`ERROR_MAP_MAX_VALUES`].
+struct CsvGrid {
+    origin: [f64; 2],
+    resolution: f64,
+    width: usize,
+    height: usize,
+    /// width × height, as f64 for the size checks.
+    area: f64,
+}
+
+/// One row of an error map's CSV: its line, layer, cell, samples and error sum.
+struct CsvRow {
+    line: usize,
+    layer: usize,
+    cell: usize,
+    samples: u32,
+    sum: f64,
+}
+
+impl CsvGrid {
+    /// The header line `# atrium error map: origin_x=… origin_y=… resolution=… width=…
+    /// height=…`; errors are at line 1.
+    fn parse(head: &str) -> Result<CsvGrid, ErrorMapParseError> {
+        let err = |message: String| parse_error(1, message);
         let head = head
             .strip_prefix("# atrium error map:")
-            .ok_or_else(|| err(1, "missing '# atrium error map:' header".into()))?;
+            .ok_or_else(|| err("missing '# atrium error map:' header".into()))?;
         let value = |key: &str| -> Result<&str, ErrorMapParseError> {
             head.split_whitespace()
                 .find_map(|kv| kv.strip_prefix(key).and_then(|v| v.strip_prefix('=')))
-                .ok_or_else(|| err(1, format!("{key}: missing from the header")))
+                .ok_or_else(|| err(format!("{key}: missing from the header")))
         };
         let finite = |key: &str| -> Result<f64, ErrorMapParseError> {
             let v = value(key)?;
             match v.parse::<f64>() {
                 Ok(x) if x.is_finite() => Ok(x),
-                Ok(x) => Err(err(1, format!("{key}: must be finite, got {x}"))),
-                Err(e) => Err(err(1, format!("{key}: {v:?} is not a number ({e})"))),
+                Ok(x) => Err(err(format!("{key}: must be finite, got {x}"))),
+                Err(e) => Err(err(format!("{key}: {v:?} is not a number ({e})"))),
             }
         };
         let cells = |key: &str| -> Result<u64, ErrorMapParseError> {
             let v = value(key)?;
             match v.parse::<u64>() {
                 Ok(n) if n >= 1 => Ok(n),
-                _ => Err(err(
-                    1,
-                    format!("{key}: must be a whole number of cells >= 1, got {v:?}"),
-                )),
+                _ => Err(err(format!(
+                    "{key}: must be a whole number of cells >= 1, got {v:?}"
+                ))),
             }
         };
         let origin = [finite("origin_x")?, finite("origin_y")?];
         let resolution = finite("resolution")?;
         if resolution <= 0.0 {
-            return Err(err(1, format!("resolution: must be > 0, got {resolution}")));
+            return Err(err(format!("resolution: must be > 0, got {resolution}")));
         }
         let (width, height) = (cells("width")?, cells("height")?);
         let far = [
@@ -309,130 +359,143 @@ impl ErrorMap {
             origin[1] + height as f64 * resolution,
         ];
         if !(far[0].is_finite() && far[1].is_finite()) {
-            return Err(err(
-                1,
-                format!(
-                    "resolution: {width} × {height} cells of {resolution} m from {origin:?} \
-                     reach beyond the finite numbers"
-                ),
-            ));
+            return Err(err(format!(
+                "resolution: {width} × {height} cells of {resolution} m from {origin:?} \
+                 reach beyond the finite numbers"
+            )));
         }
         let area = width as f64 * height as f64;
         if area > ERROR_MAP_MAX_VALUES as f64 {
-            return Err(err(
-                1,
-                format!(
-                    "width: {width} × {height} is {} cells, more than the limit of \
-                     {ERROR_MAP_MAX_VALUES} (ERROR_MAP_MAX_VALUES)",
-                    fmt_count(area)
-                ),
-            ));
+            return Err(err(format!(
+                "width: {width} × {height} is {} cells, more than the limit of \
+                 {ERROR_MAP_MAX_VALUES} (ERROR_MAP_MAX_VALUES)",
+                fmt_count(area)
+            )));
         }
-        let (width, height) = (width as usize, height as usize);
-        match lines.next() {
-            Some((_, "localizer,i,j,x,y,mean_error,samples,sum")) => {}
-            _ => {
-                return Err(err(
-                    2,
-                    "missing column header localizer,i,j,x,y,mean_error,samples,sum".into(),
-                ))
-            }
-        }
-        let mut rows: Vec<(usize, usize, usize, u32, f64)> = Vec::new();
-        let mut names: Vec<String> = Vec::new();
-        for (n, line) in lines {
-            let line_no = n + 1;
-            if line.trim().is_empty() {
-                continue;
-            }
-            let f: Vec<&str> = line.split(',').collect();
-            if f.len() != 8 {
-                return Err(err(line_no, format!("expected 8 fields, got {}", f.len())));
-            }
-            let bad = |what: &str, msg: String| err(line_no, format!("{what}: {msg}"));
-            if f[0].trim().is_empty() {
-                return Err(bad("localizer", "must not be empty".into()));
-            }
-            let index = |s: &str, what: &str, size: usize| match s.parse::<usize>() {
-                Ok(v) if v < size => Ok(v),
-                Ok(v) => Err(bad(
-                    what,
-                    format!("{v} lies outside the declared grid of {width} × {height} cells"),
-                )),
-                Err(e) => Err(bad(what, format!("{s:?} is not a cell index ({e})"))),
-            };
-            let (i, j) = (index(f[1], "i", width)?, index(f[2], "j", height)?);
-            for (k, what) in [(3, "x"), (4, "y"), (5, "mean_error")] {
-                match f[k].parse::<f64>() {
-                    Ok(v) if v.is_finite() => {}
-                    _ => {
-                        return Err(bad(
-                            what,
-                            format!("must be a finite number, got {:?}", f[k]),
-                        ))
-                    }
-                }
-            }
-            let samples: u32 = f[6].parse().map_err(|e| {
-                bad(
-                    "samples",
-                    format!("{:?} is not a count of at most {} ({e})", f[6], u32::MAX),
-                )
-            })?;
-            // Only visited cells are written: a row without samples has no mean.
-            if samples == 0 {
-                return Err(bad("samples", "must be at least 1, got 0".into()));
-            }
-            let sum: f64 = match f[7].parse::<f64>() {
-                Ok(v) if v.is_finite() && v >= 0.0 => v,
-                _ => {
-                    return Err(bad(
-                        "sum",
-                        format!("must be a finite number >= 0, got {:?}", f[7]),
-                    ))
-                }
-            };
-            let l = match names.iter().position(|x| x == f[0]) {
-                Some(l) => l,
-                None => {
-                    // Each new layer adds a whole grid: checked before it is allocated.
-                    let values = area * (names.len() + 1) as f64;
-                    if values > ERROR_MAP_MAX_VALUES as f64 {
-                        return Err(bad(
-                            "localizer",
-                            format!(
-                                "layer {} ({:?}) makes {width} × {height} cells × {} layers = \
-                                 {} values, more than the limit of {ERROR_MAP_MAX_VALUES} \
-                                 (ERROR_MAP_MAX_VALUES)",
-                                names.len() + 1,
-                                f[0],
-                                names.len() + 1,
-                                fmt_count(values)
-                            ),
-                        ));
-                    }
-                    names.push(f[0].to_string());
-                    names.len() - 1
-                }
-            };
-            rows.push((line_no, l, j * width + i, samples, sum));
-        }
-        let n = width * height * names.len();
-        let mut map = ErrorMap {
+        Ok(CsvGrid {
             origin,
             resolution,
+            width: width as usize,
+            height: height as usize,
+            area,
+        })
+    }
+
+    /// Row `line_no`: its fields checked, its localizer found in `names` or added to them
+    /// (a new layer is checked against the limit before it is allocated).
+    fn row(
+        &self,
+        line_no: usize,
+        line: &str,
+        names: &mut Vec<String>,
+    ) -> Result<CsvRow, ErrorMapParseError> {
+        let (width, height, area) = (self.width, self.height, self.area);
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 8 {
+            return Err(parse_error(
+                line_no,
+                format!("expected 8 fields, got {}", f.len()),
+            ));
+        }
+        let bad = |what: &str, msg: String| parse_error(line_no, format!("{what}: {msg}"));
+        if f[0].trim().is_empty() {
+            return Err(bad("localizer", "must not be empty".into()));
+        }
+        let index = |s: &str, what: &str, size: usize| match s.parse::<usize>() {
+            Ok(v) if v < size => Ok(v),
+            Ok(v) => Err(bad(
+                what,
+                format!("{v} lies outside the declared grid of {width} × {height} cells"),
+            )),
+            Err(e) => Err(bad(what, format!("{s:?} is not a cell index ({e})"))),
+        };
+        let (i, j) = (index(f[1], "i", width)?, index(f[2], "j", height)?);
+        for (k, what) in [(3, "x"), (4, "y"), (5, "mean_error")] {
+            match f[k].parse::<f64>() {
+                Ok(v) if v.is_finite() => {}
+                _ => {
+                    return Err(bad(
+                        what,
+                        format!("must be a finite number, got {:?}", f[k]),
+                    ))
+                }
+            }
+        }
+        let samples: u32 = f[6].parse().map_err(|e| {
+            bad(
+                "samples",
+                format!("{:?} is not a count of at most {} ({e})", f[6], u32::MAX),
+            )
+        })?;
+        // Only visited cells are written: a row without samples has no mean.
+        if samples == 0 {
+            return Err(bad("samples", "must be at least 1, got 0".into()));
+        }
+        let sum: f64 = match f[7].parse::<f64>() {
+            Ok(v) if v.is_finite() && v >= 0.0 => v,
+            _ => {
+                return Err(bad(
+                    "sum",
+                    format!("must be a finite number >= 0, got {:?}", f[7]),
+                ))
+            }
+        };
+        let layer = match names.iter().position(|x| x == f[0]) {
+            Some(l) => l,
+            None => {
+                // Each new layer adds a whole grid: checked before it is allocated.
+                let values = area * (names.len() + 1) as f64;
+                if values > ERROR_MAP_MAX_VALUES as f64 {
+                    return Err(bad(
+                        "localizer",
+                        format!(
+                            "layer {} ({:?}) makes {width} × {height} cells × {} layers = \
+                             {} values, more than the limit of {ERROR_MAP_MAX_VALUES} \
+                             (ERROR_MAP_MAX_VALUES)",
+                            names.len() + 1,
+                            f[0],
+                            names.len() + 1,
+                            fmt_count(values)
+                        ),
+                    ));
+                }
+                names.push(f[0].to_string());
+                names.len() - 1
+            }
+        };
+        Ok(CsvRow {
+            line: line_no,
+            layer,
+            cell: j * width + i,
+            samples,
+            sum,
+        })
+    }
+
+    /// The map of `names` layers with `rows` added up (rows of the same localizer and cell
+    /// are merged shards), refusing sums that overflow.
+    fn accumulate(
+        self,
+        names: Vec<String>,
+        rows: Vec<CsvRow>,
+    ) -> Result<ErrorMap, ErrorMapParseError> {
+        let (width, height) = (self.width, self.height);
+        let n = width * height * names.len();
+        let mut map = ErrorMap {
+            origin: self.origin,
+            resolution: self.resolution,
             width,
             height,
             sum: vec![0.0; n],
             count: vec![0; n],
             localizers: names,
         };
-        for (line_no, l, cell, samples, sum) in rows {
-            let k = l * width * height + cell;
-            map.sum[k] += sum;
-            map.count[k] = map.count[k].checked_add(samples).ok_or_else(|| {
-                err(
-                    line_no,
+        for row in rows {
+            let k = row.layer * width * height + row.cell;
+            map.sum[k] += row.sum;
+            map.count[k] = map.count[k].checked_add(row.samples).ok_or_else(|| {
+                parse_error(
+                    row.line,
                     format!(
                         "samples: the rows of this localizer and cell add up to more than {}",
                         u32::MAX
@@ -440,11 +503,10 @@ impl ErrorMap {
                 )
             })?;
             if !map.sum[k].is_finite() {
-                return Err(err(
-                    line_no,
+                return Err(parse_error(
+                    row.line,
                     "sum: the rows of this localizer and cell add up to more than the finite \
-                     numbers"
-                        .into(),
+                     numbers",
                 ));
             }
         }

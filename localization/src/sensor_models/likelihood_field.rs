@@ -4,10 +4,10 @@
 //! parabolas, one 1-D pass per axis).
 
 use crate::error::LocalizationError;
+use crate::filter::particles::Poses;
 use crate::limits::check_positive;
-use crate::particles::Poses;
 #[cfg(target_arch = "x86_64")]
-use crate::simd::GridTable;
+use crate::sensor_models::simd::GridTable;
 use atrium_worlds::{Cell, OccupancyGrid};
 
 mod avx2;
@@ -293,7 +293,8 @@ impl LikelihoodField {
             dist,
             params,
             log_floor: 0.0,
-            avx2: crate::simd::avx2_available() && grid.cells.len() <= i32::MAX as usize,
+            avx2: crate::sensor_models::simd::avx2_available()
+                && grid.cells.len() <= i32::MAX as usize,
         })
     }
 
@@ -512,7 +513,7 @@ impl LikelihoodField {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::particles::Headings;
+    use crate::filter::particles::Headings;
 
     /// amcl's field weights with a tight σ_hit (0.05 m) and an 8 m laser.
     pub(crate) fn tight_params() -> LikelihoodFieldParams {

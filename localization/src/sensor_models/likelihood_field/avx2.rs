@@ -4,8 +4,8 @@
 //! shared: four endpoints transformed, tested and interpolated by one instruction each, and
 //! the four corners of each read by one gather.
 
-use crate::particles::Poses;
-use crate::simd::{within, GridTable};
+use crate::filter::particles::Poses;
+use crate::sensor_models::simd::{within, GridTable};
 
 /// `out[i]` set to (with `ADD`, increased by) the log-likelihood of the beam endpoint
 /// (`u`, `v`) seen from pose i, for the poses in whole groups of four; returns how many it

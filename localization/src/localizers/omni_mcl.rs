@@ -21,15 +21,17 @@
 //! resetting" / mixture proposal of Lenser and Veloso, Thrun et al.): 001's map gives that
 //! proposal for free, since the energy at every node and rotation is one table lookup.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
+use crate::filter::cluster::PointEstimate;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::particle_filter::{
+    core_in_field, intensity_from, FilterCore, MeasurementModel, ParticleFilter,
+};
+use crate::filter::particles::{ReadingCounts, ReadingTally};
+use crate::filter::resampling::{injection_count, Injection, ResamplePolicy};
 use crate::limits::check_positive;
-use crate::mcl::InitialBelief;
-use crate::motion::OdometryMotionModel;
-use crate::omni_map::OmniMap;
-use crate::particle_filter::{core_in_field, intensity_from, FilterCore, ParticleFilter};
-use crate::particles::{ReadingCounts, ReadingTally};
-use crate::resampling::{injection_count, Injection, ResamplePolicy};
+use crate::localizers::mcl::InitialBelief;
+use crate::maps::omni_map::OmniMap;
 use atrium_robots::{normalize_angle, IntensityImage, Pose2, Reading};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -73,8 +75,8 @@ impl Default for OmniMclParams {
 
 impl OmniMclParams {
     pub fn validate(&self) -> Result<(), String> {
-        crate::particles::validate_particle_count(self.particles)?;
-        crate::motion::validate_alpha(&self.alpha)?;
+        crate::filter::particles::validate_particle_count(self.particles)?;
+        crate::filter::motion::validate_alpha(&self.alpha)?;
         if let Some(s) = self.sigma {
             check_positive("sigma", s)?;
         }
@@ -170,74 +172,16 @@ impl OmniMcl {
     /// (row-major, the map's width × height).
     pub fn observe(&mut self, image: &[f32]) -> Result<(), LocalizationError> {
         self.map.features_into(image, &mut self.feat)?;
-        self.core.propagate(&self.motion);
-        let m = self.core.set.len();
-        let mut best = f64::NEG_INFINITY;
-        for i in 0..m {
-            let pose = self.core.set.pose(i);
-            let l = match self.map.energy_at(&self.feat, &pose) {
-                Some(e) => -e * self.inv_two_sigma2,
-                None => f64::NEG_INFINITY,
-            };
-            self.core.set.log_likelihoods_mut()[i] = l;
-            best = best.max(l);
-        }
-        let eps = self.params.outlier;
-        self.core.set.reweight(|_, l| {
-            // Relative to the best particle: exp never underflows for all of them at once,
-            // and the floor is a fraction of the best explanation.
-            if best.is_finite() {
-                eps + (1.0 - eps) * (l - best).exp()
-            } else {
-                1.0
-            }
-        });
-        self.tally.updates += 1;
-        self.core.refresh_estimate(PointEstimate::WeightedMean);
-        if self.policy.due(self.core.set.ess(), m) {
-            self.resample();
-            self.core.refresh_estimate(PointEstimate::WeightedMean);
-        }
+        let feat = std::mem::take(&mut self.feat);
+        self.filter_update(&feat);
+        self.feat = feat;
         Ok(())
-    }
-
-    /// Low-variance resampling, then `inject` of the particles replaced by draws from
-    /// exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half a grid step
-    /// and half a rotation step.
-    fn resample(&mut self) {
-        let m = self.core.set.len();
-        let k = injection_count(self.params.inject, m);
-        let total = if k > 0 { self.proposal() } else { None };
-        let Some(total) = total else {
-            self.core.set.resample_plain(m, &mut self.core.rng);
-            return;
-        };
-        let (map, table) = (&self.map, &self.table);
-        let r = map.rotations();
-        let (nx, _) = map.nodes();
-        let step = map.step();
-        let half_turn = std::f64::consts::PI / r as f64;
-        self.core
-            .set
-            .resample(m, Injection::Count(k), &mut self.core.rng, |rng| {
-                let u = rng.random::<f64>() * total;
-                let cell = table.partition_point(|c| *c <= u).min(table.len() - 1);
-                let (node, rot) = (cell / r, cell % r);
-                let [cx, cy] = map.node_position(node % nx, node / nx);
-                Pose2::new(
-                    cx + step * (rng.random::<f64>() - 0.5),
-                    cy + step * (rng.random::<f64>() - 0.5),
-                    normalize_angle(
-                        map.heading(rot) + half_turn * (2.0 * rng.random::<f64>() - 1.0),
-                    ),
-                )
-            });
     }
 
     /// The energy function of the current panorama as a cumulative table over every
     /// (node, rotation), and its total; None when no energy is finite.
-    fn proposal(&mut self) -> Option<f64> {
-        self.map.energy(&self.feat, &mut self.table);
+    fn proposal(&mut self, feat: &[f64]) -> Option<f64> {
+        self.map.energy(feat, &mut self.table);
         let emin = self.table.iter().copied().fold(f64::INFINITY, f64::min);
         if !emin.is_finite() {
             return None;
@@ -280,12 +224,86 @@ impl ParticleFilter for OmniMcl {
     }
 }
 
+/// A panorama's features weigh each particle by the map's energy at its pose, relative to the
+/// best particle and with an outlier floor; resampling waits for the effective sample size to
+/// fall (`resample_ess`) and injects particles drawn from the panorama's energy.
+impl MeasurementModel for OmniMcl {
+    type Observation = [f64];
+
+    fn motion(&self) -> &OdometryMotionModel {
+        &self.motion
+    }
+
+    fn reweight(&mut self, feat: &[f64]) -> bool {
+        let m = self.core.set.len();
+        let mut best = f64::NEG_INFINITY;
+        for i in 0..m {
+            let pose = self.core.set.pose(i);
+            let l = match self.map.energy_at(feat, &pose) {
+                Some(e) => -e * self.inv_two_sigma2,
+                None => f64::NEG_INFINITY,
+            };
+            self.core.set.log_likelihoods_mut()[i] = l;
+            best = best.max(l);
+        }
+        let eps = self.params.outlier;
+        self.core.set.reweight(|_, l| {
+            // Relative to the best particle: exp never underflows for all of them at once,
+            // and the floor is a fraction of the best explanation.
+            if best.is_finite() {
+                eps + (1.0 - eps) * (l - best).exp()
+            } else {
+                1.0
+            }
+        });
+        self.tally.updates += 1;
+        true
+    }
+
+    fn resample_policy(&self) -> ResamplePolicy {
+        self.policy
+    }
+
+    /// Low-variance resampling, then `inject` of the particles replaced by draws from
+    /// exp(−E / 2σ²) over every (node, rotation), jittered uniformly within half a grid step
+    /// and half a rotation step.
+    fn resample(&mut self, feat: &[f64]) {
+        let m = self.core.set.len();
+        let k = injection_count(self.params.inject, m);
+        let total = if k > 0 { self.proposal(feat) } else { None };
+        let Some(total) = total else {
+            self.core.set.resample_plain(m, &mut self.core.rng);
+            return;
+        };
+        let (map, table) = (&self.map, &self.table);
+        let r = map.rotations();
+        let (nx, _) = map.nodes();
+        let step = map.step();
+        let half_turn = std::f64::consts::PI / r as f64;
+        self.core
+            .set
+            .resample(m, Injection::Count(k), &mut self.core.rng, |rng| {
+                let u = rng.random::<f64>() * total;
+                let cell = table.partition_point(|c| *c <= u).min(table.len() - 1);
+                let (node, rot) = (cell / r, cell % r);
+                let [cx, cy] = map.node_position(node % nx, node / nx);
+                Pose2::new(
+                    cx + step * (rng.random::<f64>() - 0.5),
+                    cy + step * (rng.random::<f64>() - 0.5),
+                    normalize_angle(
+                        map.heading(rot) + half_turn * (2.0 * rng.random::<f64>() - 1.0),
+                    ),
+                )
+            });
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::localizer::{Localizer, OdometryDelta};
-    use crate::omni_map::tests::panorama_of;
-    use crate::omni_map::{shift_columns, OmniMapParams};
+    use crate::maps::omni_map::tests::panorama_of;
+    use crate::maps::omni_map::{shift_columns, OmniMapParams};
     use atrium_robots::Mount3;
 
     /// A synthetic panorama of four posts seen from (x, y) with heading `theta`.

@@ -9,15 +9,17 @@
 //! Steps that draw random numbers draw them in a fixed, documented order, so that a seeded
 //! run is reproducible.
 
-use crate::cluster::{point_estimate, ClusterScratch, PointEstimate};
 use crate::error::LocalizationError;
-use crate::initial_belief::{gaussian_is_valid, gaussian_pose, InitialBelief, UniformInRegions};
-use crate::kld::{BinSet, KldSampling};
-use crate::motion::{apply_increment, OdometryMotionModel};
-use crate::particles::{
+use crate::filter::cluster::{point_estimate, ClusterScratch, PointEstimate};
+use crate::filter::initial_belief::{
+    gaussian_is_valid, gaussian_pose, InitialBelief, UniformInRegions,
+};
+use crate::filter::kld::{BinSet, KldSampling};
+use crate::filter::motion::{apply_increment, OdometryMotionModel};
+use crate::filter::particles::{
     effective_sample_size, normalize_weights, weights_from_log_likelihoods, HeadingTrig,
 };
-use crate::resampling::{low_variance_indices, Injection};
+use crate::filter::resampling::{low_variance_indices, Injection};
 use atrium_robots::Pose2;
 use nalgebra::Matrix3;
 use rand::Rng;
@@ -495,7 +497,7 @@ impl ParticleSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::resampling::ResamplePolicy;
+    use crate::filter::resampling::ResamplePolicy;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

@@ -3,7 +3,7 @@
 //! between the sample-based and the true posterior below ε with probability 1 − δ, given the
 //! number k of histogram bins the particles occupy.
 
-use crate::lattice::floor_i64;
+use crate::filter::lattice::floor_i64;
 use atrium_robots::normalize_angle;
 
 /// Standard normal quantile (inverse CDF), Acklam's rational approximation: relative error

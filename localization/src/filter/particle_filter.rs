@@ -1,16 +1,29 @@
-//! The [`Localizer`] and [`Capabilities`] glue every particle filter of the crate shares, so
-//! that a filter writes only what is its own: how it takes a reading. Odometry is only
-//! accumulated (the motion model runs just before the next observation), and the estimate is
-//! the one of the last sensor update carried forward by the odometry received since.
+//! The particle filter recipe every particle filter of the crate follows, and the
+//! [`Localizer`] and [`Capabilities`] glue they share, so that a filter writes only what is
+//! its own: how it takes a reading and how a reading weighs its particles.
+//!
+//! The recipe, after Beluga's composable steps (a filter is its sensor model plus a choice of
+//! steps and policies): [`MeasurementModel::filter_update`] runs
+//! propagate → reweight → estimate → resample (when the [`ResamplePolicy`] says so). A filter
+//! implements [`ParticleFilter`] (where its [`FilterCore`] is, which readings it takes) and
+//! [`MeasurementModel`] (how an observation weighs the particles); the other steps have
+//! defaults it may override where its method really differs (the WiFi filter's propagation
+//! keeps particles inside the building, CGR's moves and refines each particle together,
+//! MCL's and the omnicam filter's resampling inject particles drawn from the reading).
+//!
+//! Odometry is only accumulated (the motion model runs just before the next observation),
+//! and the estimate is the one of the last sensor update carried forward by the odometry
+//! received since.
 
-use crate::cluster::PointEstimate;
 use crate::error::LocalizationError;
-use crate::initial_belief::InitialBelief;
+use crate::filter::cluster::PointEstimate;
+use crate::filter::initial_belief::InitialBelief;
+use crate::filter::motion::OdometryMotionModel;
+use crate::filter::observation_fit::FitTracker;
+use crate::filter::particle_set::ParticleSet;
+use crate::filter::particles::{CarriedEstimate, HeadingTrig};
+use crate::filter::resampling::ResamplePolicy;
 use crate::localizer::{Capabilities, Estimate, Localizer, LocalizerError, OdometryDelta};
-use crate::motion::OdometryMotionModel;
-use crate::observation_fit::FitTracker;
-use crate::particle_set::ParticleSet;
-use crate::particles::{CarriedEstimate, HeadingTrig};
 use atrium_robots::{IntensityImage, Pose2, Reading};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -86,11 +99,11 @@ impl FilterCore {
 /// here rather than twice in each filter.
 macro_rules! core_in_field {
     () => {
-        fn core(&self) -> &$crate::particle_filter::FilterCore {
+        fn core(&self) -> &$crate::filter::particle_filter::FilterCore {
             &self.core
         }
 
-        fn core_mut(&mut self) -> &mut $crate::particle_filter::FilterCore {
+        fn core_mut(&mut self) -> &mut $crate::filter::particle_filter::FilterCore {
             &mut self.core
         }
     };
@@ -124,6 +137,72 @@ pub trait ParticleFilter: Clone + Send + 'static {
     /// is not applied to them; the estimate does apply it).
     fn particles(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
         self.core().set.iter()
+    }
+}
+
+/// The measurement model of a particle filter and its steps around it: what a filter supplies
+/// to the one default update, [`MeasurementModel::filter_update`]. Only
+/// [`MeasurementModel::reweight`] (and the motion model of the default propagation) must be
+/// written; every other step has the default a plain MCL uses.
+pub trait MeasurementModel: ParticleFilter {
+    /// One observation as the filter's [`ParticleFilter::take_reading`] prepared it from a
+    /// reading (a laser scan, a brightness, a panorama's features, a WiFi scan).
+    type Observation: ?Sized;
+
+    /// The motion model of the default [`MeasurementModel::propagate`].
+    fn motion(&self) -> &OdometryMotionModel;
+
+    /// Weighs the particles by `z` (through [`ParticleSet::reweight_log`] and its
+    /// siblings). Returns false when `z` gave nothing to weigh by (too few points, no valid
+    /// beam): the particles then only moved, and the update takes their estimate but does not
+    /// resample.
+    fn reweight(&mut self, z: &Self::Observation) -> bool;
+
+    /// The point estimate the filter reports. Default: the weighted mean.
+    fn point_estimate(&self) -> PointEstimate {
+        PointEstimate::WeightedMean
+    }
+
+    /// When the filter resamples. Default: after every update.
+    fn resample_policy(&self) -> ResamplePolicy {
+        ResamplePolicy::EveryUpdate
+    }
+
+    /// Moves the particles by the odometry received since the last update. Default: the
+    /// odometry motion model (see [`FilterCore::propagate`]).
+    fn propagate(&mut self) {
+        let motion = *self.motion();
+        self.core_mut().propagate(&motion);
+    }
+
+    /// Takes the estimate of the particles as they are now. Default:
+    /// [`MeasurementModel::point_estimate`], computed from the particles.
+    fn refresh_estimate(&mut self) {
+        let kind = self.point_estimate();
+        self.core_mut().refresh_estimate(kind);
+    }
+
+    /// Resamples after `z` weighed the particles. Default: low-variance resampling at the
+    /// current size, nothing injected.
+    fn resample(&mut self, _z: &Self::Observation) {
+        let core = self.core_mut();
+        core.set.resample_plain(core.set.len(), &mut core.rng);
+    }
+
+    /// The default update: propagate → reweight → estimate → resample by
+    /// [`MeasurementModel::resample_policy`]. The estimate is taken from the weighted set
+    /// before resampling: resampling adds variance and injected particles, never information.
+    fn filter_update(&mut self, z: &Self::Observation) {
+        self.propagate();
+        let weighed = self.reweight(z);
+        self.refresh_estimate();
+        if !weighed {
+            return;
+        }
+        let set = &self.core().set;
+        if self.resample_policy().due(set.ess(), set.len()) {
+            self.resample(z);
+        }
     }
 }
 
