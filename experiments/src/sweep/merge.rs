@@ -113,17 +113,31 @@ fn check_coverage(out: &Path, shards: &[Shard]) -> Result<(), ScenarioError> {
             ));
         }
     }
-    let refuse = |msg: String| ScenarioError::field(out, "SHARD_DIR", msg);
-    let shard_name = |s: &Shard| {
-        format!(
-            "{}/{} ({})",
-            s.layout.shard.0,
-            s.layout.shard.1,
-            s.dir.display()
-        )
-    };
+    check_distinct(out, shards)?;
+    let held = trials_held(out, shards, cells, trials)?;
+    check_complete(out, shards, &held, cells, trials)
+}
 
-    // The same shard (or overlapping shards) given twice.
+/// Which shard folder holds each trial (an index into the shards), and which localizers it
+/// has rows for there.
+type Held<'a> = BTreeMap<(usize, usize), (usize, BTreeSet<&'a str>)>;
+
+fn refuse_shards(out: &Path, msg: String) -> ScenarioError {
+    ScenarioError::field(out, "SHARD_DIR", msg)
+}
+
+fn shard_name(s: &Shard) -> String {
+    format!(
+        "{}/{} ({})",
+        s.layout.shard.0,
+        s.layout.shard.1,
+        s.dir.display()
+    )
+}
+
+/// Refuses the same shard folder (or overlapping shards) given twice.
+fn check_distinct(out: &Path, shards: &[Shard]) -> Result<(), ScenarioError> {
+    let refuse = |msg: String| refuse_shards(out, msg);
     for (a, sa) in shards.iter().enumerate() {
         for sb in &shards[a + 1..] {
             if same_canonical(&sa.dir, &sb.dir) {
@@ -142,12 +156,19 @@ fn check_coverage(out: &Path, shards: &[Shard]) -> Result<(), ScenarioError> {
         }
     }
 
-    let localizers: BTreeSet<&str> = shards
-        .iter()
-        .flat_map(|s| s.results.rows.iter().map(|r| r.localizer.as_str()))
-        .collect();
-    // Which folder holds each trial, and which localizers it has there.
-    let mut held: BTreeMap<(usize, usize), (usize, BTreeSet<&str>)> = BTreeMap::new();
+    Ok(())
+}
+
+/// Where each trial's rows are; refuses rows outside the sweep or their shard, a trial in two
+/// folders and two rows of one localizer for a trial.
+fn trials_held<'a>(
+    out: &Path,
+    shards: &'a [Shard],
+    cells: usize,
+    trials: usize,
+) -> Result<Held<'a>, ScenarioError> {
+    let refuse = |msg: String| refuse_shards(out, msg);
+    let mut held: Held = BTreeMap::new();
     for (k, s) in shards.iter().enumerate() {
         let csv = s.dir.join("results.csv");
         for r in &s.results.rows {
@@ -196,7 +217,23 @@ fn check_coverage(out: &Path, shards: &[Shard]) -> Result<(), ScenarioError> {
         }
     }
 
-    // Incomplete trials (an interrupted shard), then trials no folder holds.
+    Ok(held)
+}
+
+/// Refuses incomplete trials (an interrupted shard), then trials no folder holds, naming the
+/// shards of the split that no folder holds at all.
+fn check_complete(
+    out: &Path,
+    shards: &[Shard],
+    held: &Held,
+    cells: usize,
+    trials: usize,
+) -> Result<(), ScenarioError> {
+    let refuse = |msg: String| refuse_shards(out, msg);
+    let localizers: BTreeSet<&str> = shards
+        .iter()
+        .flat_map(|s| s.results.rows.iter().map(|r| r.localizer.as_str()))
+        .collect();
     let partial: Vec<String> = held
         .iter()
         .filter(|(_, (_, l))| l.len() < localizers.len())
@@ -216,7 +253,7 @@ fn check_coverage(out: &Path, shards: &[Shard]) -> Result<(), ScenarioError> {
     if missing.is_empty() {
         return Ok(());
     }
-    let n = first.layout.shard.1;
+    let n = shards[0].layout.shard.1;
     let whole = Layout {
         cells,
         trials,

@@ -258,147 +258,212 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     let started = Instant::now();
     check_settings(&sweep.file, settings)?;
     let out = &settings.out;
-    let write_err = |file: &Path| {
-        let file = file.to_path_buf();
-        move |err| ScenarioError::Write {
-            file: file.clone(),
-            err,
-        }
-    };
     let csv_path = out.join("results.csv");
-    let axis_paths: Vec<String> = sweep.axes.iter().map(|a| a.path.clone()).collect();
-    // Localizer count per trial: a trial is recorded only when all its rows are.
-    let per_trial = sweep.cell_scenario(0)?.localizers.len();
     let layout = Layout {
         cells: sweep.cells(),
         trials: sweep.trials,
         shard: settings.shard.unwrap_or((0, 1)),
     };
     let sweep_text_hash = inputs::fnv_hex(&[sweep.text.as_bytes()]);
+    let done = prepare_results(sweep, settings, &layout, &sweep_text_hash)?;
+    write_sweep_json(sweep, settings, &sweep_text_hash)?;
 
-    let mut done: BTreeSet<(usize, usize)> = BTreeSet::new();
-    if csv_path.exists() {
-        let existing = csv::read_results(&csv_path)?;
-        if existing.hash != sweep.hash {
-            let why = match recorded_inputs(out) {
-                Some((text_hash, old, old_worlds)) => {
-                    let mut changes = inputs::describe_changes(&old, &sweep.inputs);
-                    if text_hash != sweep_text_hash {
-                        changes.insert(0, format!("{} changed", sweep.file.display()));
-                    }
-                    // Same files, other worlds: the generator itself changed.
-                    let cells: Vec<String> = sweep
-                        .world_hashes
-                        .iter()
-                        .filter(|(c, h)| old_worlds.get(c).is_some_and(|o| o != *h))
-                        .map(|(c, _)| c.to_string())
-                        .collect();
-                    if !cells.is_empty() {
-                        changes.push(format!(
-                            "the generated worlds of cells {} changed",
-                            cells.join(", ")
-                        ));
-                    }
-                    match changes.is_empty() {
-                        true => String::new(),
-                        false => format!(": the inputs changed since ({})", changes.join(", ")),
-                    }
-                }
-                None => String::new(),
-            };
-            return Err(ScenarioError::field(
-                &csv_path,
-                "hash",
-                format!(
-                    "results of a different sweep (hash {}, this sweep {}){why}: choose another --out",
-                    existing.hash, sweep.hash
-                ),
-            ));
-        }
-        if !settings.resume {
-            return Err(ScenarioError::field(
-                &csv_path,
-                "results",
-                "already holds results of this sweep: pass --resume to continue it, or choose another --out",
-            ));
-        }
-        // The folder must end up holding exactly this run's shard: resuming shard 0/2 as 1/2
-        // would mix two shards under one header.
-        if let Some(old) = existing.layout {
-            if !layout.covers(&old) {
-                return Err(ScenarioError::field(
-                    &csv_path,
-                    "shard",
-                    format!(
-                        "holds shard {}/{}; this run is shard {}/{}, which does not include it: \
-                         resume it as the same shard (or as the whole sweep), or choose another --out",
-                        old.shard.0, old.shard.1, layout.shard.0, layout.shard.1
-                    ),
-                ));
-            }
-        }
-        // Rows without the current optional columns (written before they existed) cannot be
-        // continued with rows that have them.
-        let held = existing.optional_columns();
-        if !existing.rows.is_empty() && held < csv::CURRENT_OPTIONAL {
-            return Err(ScenarioError::field(
-                &csv_path,
-                "columns",
-                format!(
-                    "written by an older atrium (no {} column): rerun this sweep into another --out",
-                    csv::OPTIONAL_COLUMNS[held]
-                ),
-            ));
-        }
-        // Keep only whole trials; the partial line and any trial missing rows are redone.
-        let mut count: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
-        for r in &existing.rows {
-            *count.entry((r.cell, r.trial)).or_default() += 1;
-        }
-        // With error maps a trial also needs its map file (written before its rows, so only
-        // a deleted file can be missing).
-        done = count
-            .into_iter()
-            .filter(|&(_, n)| n >= per_trial)
-            .map(|(k, _)| k)
-            .filter(|&(c, t)| {
-                sweep.error_map.is_none() || maps::trial_map_path(out, c, t).is_file()
-            })
-            .collect();
-        let kept = Results {
-            rows: existing
-                .rows
-                .into_iter()
-                .filter(|r| done.contains(&(r.cell, r.trial)))
-                .collect(),
-            layout: Some(layout),
-            ..existing
-        };
-        // Without rows, `to_text` would write the header without the optional columns.
-        let text = match kept.rows.is_empty() {
-            true => csv::header_with(
-                &kept.hash,
-                &kept.name,
-                Some(&layout),
-                &axis_paths,
-                csv::CURRENT_OPTIONAL,
-            ),
-            false => kept.to_text(),
-        };
-        csv::write_atomic(&csv_path, &text)?;
-    } else {
+    let mine: Vec<(usize, usize)> = (0..sweep.total_trials())
+        .map(|g| (g / sweep.trials, g % sweep.trials))
+        .filter(|&(c, t)| layout.holds(c, t))
+        .collect();
+    let todo: Vec<(usize, usize)> = mine.iter().copied().filter(|k| !done.contains(k)).collect();
+    let skipped = mine.len() - todo.len();
+    run_trials(sweep, settings, &todo, &csv_path)?;
+    let (summary_md, pictures, notes) = finish_outputs(sweep, out, &csv_path, &mine)?;
+    Ok(SweepOutcome {
+        ran: todo.len(),
+        skipped,
+        results_csv: csv_path,
+        summary_md,
+        pictures,
+        notes,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// An I/O error on `file` as the error of writing it.
+fn write_err(file: &Path) -> impl Fn(std::io::Error) -> ScenarioError {
+    let file = file.to_path_buf();
+    move |err| ScenarioError::Write {
+        file: file.clone(),
+        err,
+    }
+}
+
+/// Makes `out/results.csv` ready for this run and returns the trials it already holds whole:
+/// a new file holds only the header; an existing one must hold this sweep (resumed, of a shard
+/// this run covers, with the current columns) and is cut back to its whole trials.
+fn prepare_results(
+    sweep: &Sweep,
+    settings: &SweepSettings,
+    layout: &Layout,
+    sweep_text_hash: &str,
+) -> Result<BTreeSet<(usize, usize)>, ScenarioError> {
+    let out = &settings.out;
+    let csv_path = out.join("results.csv");
+    let axis_paths: Vec<String> = sweep.axes.iter().map(|a| a.path.clone()).collect();
+    // Localizer count per trial: a trial is recorded only when all its rows are.
+    let per_trial = sweep.cell_scenario(0)?.localizers.len();
+    if !csv_path.exists() {
         std::fs::create_dir_all(out).map_err(write_err(out))?;
         csv::write_atomic(
             &csv_path,
             &csv::header_with(
                 &sweep.hash,
                 &sweep.name,
-                Some(&layout),
+                Some(layout),
                 &axis_paths,
                 csv::CURRENT_OPTIONAL,
             ),
         )?;
+        return Ok(BTreeSet::new());
     }
+    let existing = csv::read_results(&csv_path)?;
+    check_resumable(
+        sweep,
+        settings,
+        layout,
+        sweep_text_hash,
+        &csv_path,
+        &existing,
+    )?;
+    // Keep only whole trials; the partial line and any trial missing rows are redone.
+    let mut count: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+    for r in &existing.rows {
+        *count.entry((r.cell, r.trial)).or_default() += 1;
+    }
+    // With error maps a trial also needs its map file (written before its rows, so only
+    // a deleted file can be missing).
+    let done: BTreeSet<(usize, usize)> = count
+        .into_iter()
+        .filter(|&(_, n)| n >= per_trial)
+        .map(|(k, _)| k)
+        .filter(|&(c, t)| sweep.error_map.is_none() || maps::trial_map_path(out, c, t).is_file())
+        .collect();
+    let kept = Results {
+        rows: existing
+            .rows
+            .into_iter()
+            .filter(|r| done.contains(&(r.cell, r.trial)))
+            .collect(),
+        layout: Some(*layout),
+        ..existing
+    };
+    // Without rows, `to_text` would write the header without the optional columns.
+    let text = match kept.rows.is_empty() {
+        true => csv::header_with(
+            &kept.hash,
+            &kept.name,
+            Some(layout),
+            &axis_paths,
+            csv::CURRENT_OPTIONAL,
+        ),
+        false => kept.to_text(),
+    };
+    csv::write_atomic(&csv_path, &text)?;
+    Ok(done)
+}
+
+/// Refuses to continue `existing` (the results at `csv_path`) unless it holds this very sweep,
+/// `--resume` was given, this run's shard covers it and its rows have the current columns.
+fn check_resumable(
+    sweep: &Sweep,
+    settings: &SweepSettings,
+    layout: &Layout,
+    sweep_text_hash: &str,
+    csv_path: &Path,
+    existing: &Results,
+) -> Result<(), ScenarioError> {
+    if existing.hash != sweep.hash {
+        let why = what_changed(sweep, &settings.out, sweep_text_hash);
+        return Err(ScenarioError::field(
+            csv_path,
+            "hash",
+            format!(
+                "results of a different sweep (hash {}, this sweep {}){why}: choose another --out",
+                existing.hash, sweep.hash
+            ),
+        ));
+    }
+    if !settings.resume {
+        return Err(ScenarioError::field(
+            csv_path,
+            "results",
+            "already holds results of this sweep: pass --resume to continue it, or choose another --out",
+        ));
+    }
+    // The folder must end up holding exactly this run's shard: resuming shard 0/2 as 1/2
+    // would mix two shards under one header.
+    if let Some(old) = existing.layout {
+        if !layout.covers(&old) {
+            return Err(ScenarioError::field(
+                csv_path,
+                "shard",
+                format!(
+                    "holds shard {}/{}; this run is shard {}/{}, which does not include it: \
+                     resume it as the same shard (or as the whole sweep), or choose another --out",
+                    old.shard.0, old.shard.1, layout.shard.0, layout.shard.1
+                ),
+            ));
+        }
+    }
+    // Rows without the current optional columns (written before they existed) cannot be
+    // continued with rows that have them.
+    let held = existing.optional_columns();
+    if !existing.rows.is_empty() && held < csv::CURRENT_OPTIONAL {
+        return Err(ScenarioError::field(
+            csv_path,
+            "columns",
+            format!(
+                "written by an older atrium (no {} column): rerun this sweep into another --out",
+                csv::OPTIONAL_COLUMNS[held]
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Why the results in `out` belong to another sweep, as far as its `sweep.json` tells: the
+/// changed inputs and cells whose generated world changed (empty when nothing is known).
+fn what_changed(sweep: &Sweep, out: &Path, sweep_text_hash: &str) -> String {
+    let Some((text_hash, old, old_worlds)) = recorded_inputs(out) else {
+        return String::new();
+    };
+    let mut changes = inputs::describe_changes(&old, &sweep.inputs);
+    if text_hash != sweep_text_hash {
+        changes.insert(0, format!("{} changed", sweep.file.display()));
+    }
+    // Same files, other worlds: the generator itself changed.
+    let cells: Vec<String> = sweep
+        .world_hashes
+        .iter()
+        .filter(|(c, h)| old_worlds.get(c).is_some_and(|o| o != *h))
+        .map(|(c, _)| c.to_string())
+        .collect();
+    if !cells.is_empty() {
+        changes.push(format!(
+            "the generated worlds of cells {} changed",
+            cells.join(", ")
+        ));
+    }
+    match changes.is_empty() {
+        true => String::new(),
+        false => format!(": the inputs changed since ({})", changes.join(", ")),
+    }
+}
+
+/// Writes `out/sweep.json`: what was swept, its inputs' hashes and the generated worlds'.
+fn write_sweep_json(
+    sweep: &Sweep,
+    settings: &SweepSettings,
+    sweep_text_hash: &str,
+) -> Result<(), ScenarioError> {
     let sweep_json = serde_json::json!({
         "sweep": sweep.file,
         "base": sweep.base_file,
@@ -418,68 +483,84 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         "world_hashes": sweep.world_hashes,
     });
     csv::write_atomic(
-        &out.join("sweep.json"),
+        &settings.out.join("sweep.json"),
         &serde_json::to_string_pretty(&sweep_json).unwrap_or_default(),
-    )?;
+    )
+}
 
-    let mine: Vec<(usize, usize)> = (0..sweep.total_trials())
-        .map(|g| (g / sweep.trials, g % sweep.trials))
-        .filter(|&(c, t)| layout.holds(c, t))
-        .collect();
-    let todo: Vec<(usize, usize)> = mine.iter().copied().filter(|k| !done.contains(k)).collect();
-    let skipped = mine.len() - todo.len();
+/// The cells of the trials to run, each built when its first trial starts, shared by its
+/// trials, and dropped after its last: memory holds the cells in progress, not the whole sweep.
+struct CellCache<'a> {
+    sweep: &'a Sweep,
+    out: &'a Path,
+    /// Per cell, its scenario and maps once built, and how many of its trials are left.
+    held: std::collections::BTreeMap<usize, (Slot, AtomicUsize)>,
+}
 
-    // A cell's scenario is parsed and its maps (likelihood field, grids) are built when its
-    // first trial starts, shared by its trials, and dropped after its last: memory holds the
-    // cells in progress, not the whole sweep.
-    type Slot = Mutex<Option<std::sync::Arc<CellRun>>>;
-    let mut held: std::collections::BTreeMap<usize, (Slot, AtomicUsize)> = Default::default();
-    for &(c, _) in &todo {
-        held.entry(c)
-            .or_insert_with(|| (Mutex::new(None), AtomicUsize::new(0)))
-            .1
-            .fetch_add(1, Ordering::Relaxed);
+type Slot = Mutex<Option<std::sync::Arc<CellRun>>>;
+
+impl<'a> CellCache<'a> {
+    fn new(sweep: &'a Sweep, out: &'a Path, todo: &[(usize, usize)]) -> Self {
+        let mut held: std::collections::BTreeMap<usize, (Slot, AtomicUsize)> = Default::default();
+        for &(c, _) in todo {
+            held.entry(c)
+                .or_insert_with(|| (Mutex::new(None), AtomicUsize::new(0)))
+                .1
+                .fetch_add(1, Ordering::Relaxed);
+        }
+        CellCache { sweep, out, held }
     }
-    let cell_run = |cell: usize| -> Result<std::sync::Arc<CellRun>, ScenarioError> {
-        let slot = &held[&cell].0;
+
+    /// The scenario and maps of `cell`, built on first use.
+    fn get(&self, cell: usize) -> Result<std::sync::Arc<CellRun>, ScenarioError> {
+        let slot = &self.held[&cell].0;
         if let Some(run) = slot.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             return Ok(run.clone());
         }
         // Built without holding the lock: a build that waits on rayon work (a localizer's
         // parallel training) may run another trial of this cell on this very thread, which
         // would deadlock on it. Two first trials may both build; the first kept wins.
-        let scenario = sweep.cell_scenario(cell)?;
-        let maps = sweep.warm_cell(cell, &scenario)?;
+        let scenario = self.sweep.cell_scenario(cell)?;
+        let maps = self.sweep.warm_cell(cell, &scenario)?;
         let mut slot = slot.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(run) = slot.as_ref() {
             return Ok(run.clone());
         }
         // Under the lock, so one thread writes the cell's world.
-        if sweep.error_map.is_some() {
-            maps::write_world(out, cell, &scenario.world)?;
+        if self.sweep.error_map.is_some() {
+            maps::write_world(self.out, cell, &scenario.world)?;
         }
         Ok(slot.insert(std::sync::Arc::new((scenario, maps))).clone())
-    };
+    }
 
+    /// Counts one finished trial of `cell`; after its last, frees the cell's scenario and maps.
+    fn trial_done(&self, cell: usize) {
+        let (slot, left) = &self.held[&cell];
+        if left.fetch_sub(1, Ordering::AcqRel) == 1 {
+            slot.lock().unwrap_or_else(|p| p.into_inner()).take();
+        }
+    }
+}
+
+/// Runs the trials `todo` in parallel (on `settings.jobs` threads), appending each trial's rows
+/// to `csv_path` as one write + fsync.
+fn run_trials(
+    sweep: &Sweep,
+    settings: &SweepSettings,
+    todo: &[(usize, usize)],
+    csv_path: &Path,
+) -> Result<(), ScenarioError> {
+    let out = &settings.out;
+    let cells = CellCache::new(sweep, out, todo);
     let file = std::fs::OpenOptions::new()
         .append(true)
-        .open(&csv_path)
-        .map_err(write_err(&csv_path))?;
+        .open(csv_path)
+        .map_err(write_err(csv_path))?;
     let file = Mutex::new(file);
-    let bar = settings.progress.then(|| {
-        let bar = indicatif::ProgressBar::new(todo.len() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{msg} [{bar:40}] {pos}/{len} trials (eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        bar.set_message(sweep.name.clone());
-        bar
-    });
+    let bar = settings.progress.then(|| progress_bar(sweep, todo.len()));
     let work = || {
         todo.par_iter().try_for_each(|&(cell, trial)| {
-            let run = cell_run(cell)?;
+            let run = cells.get(cell)?;
             let rows = run_trial(sweep, &run.0, cell, trial, out)?;
             drop(run);
             let batch: String = rows.iter().map(Row::to_line).collect();
@@ -488,13 +569,9 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
             let mut f = file.lock().unwrap_or_else(|p| p.into_inner());
             f.write_all(batch.as_bytes())
                 .and_then(|_| f.sync_data())
-                .map_err(write_err(&csv_path))?;
+                .map_err(write_err(csv_path))?;
             drop(f);
-            let (slot, left) = &held[&cell];
-            if left.fetch_sub(1, Ordering::AcqRel) == 1 {
-                // The cell's last trial: free its scenario and maps.
-                slot.lock().unwrap_or_else(|p| p.into_inner()).take();
-            }
+            cells.trial_done(cell);
             if let Some(b) = &bar {
                 b.inc(1);
             }
@@ -513,15 +590,34 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    Ok(())
+}
 
-    // The shard is complete: rewrite the file in canonical order so its content does not
-    // depend on which thread finished first.
-    let results = csv::read_results(&csv_path)?;
+fn progress_bar(sweep: &Sweep, trials: usize) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(trials as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} trials (eta {eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar.set_message(sweep.name.clone());
+    bar
+}
+
+/// Once the shard is complete: rewrites `csv_path` in canonical order (so its content does
+/// not depend on which thread finished first), then writes `summary.md`, the failure curves
+/// and the pictures of the trials `mine`. Returns the summary's path, the pictures and notes.
+fn finish_outputs(
+    sweep: &Sweep,
+    out: &Path,
+    csv_path: &Path,
+    mine: &[(usize, usize)],
+) -> Result<(PathBuf, Vec<PathBuf>, Vec<String>), ScenarioError> {
+    let results = csv::read_results(csv_path)?;
     let results = Results {
         rows: canonical(results.rows),
         ..results
     };
-    csv::write_atomic(&csv_path, &results.to_text())?;
+    csv::write_atomic(csv_path, &results.to_text())?;
     let summary_md = out.join("summary.md");
     let axes = axis_labels(sweep);
     let curves = failure::write_outputs(out, &results, &axes, &sweep.failure, sweep.seed)?;
@@ -533,24 +629,14 @@ pub fn run_sweep(sweep: &Sweep, settings: &SweepSettings) -> Result<SweepOutcome
         out,
         &results,
         &axes,
-        sweep
-            .error_map
-            .map(|_| (mine.as_slice(), sweep.cells() == 1)),
+        sweep.error_map.map(|_| (mine, sweep.cells() == 1)),
     )?;
     pictures.extend(curves.files);
     notes.extend(curves.notes);
     notes.extend(super::drive::unlike_drives(&super::drive::per_cell(
         &results,
     )));
-    Ok(SweepOutcome {
-        ran: todo.len(),
-        skipped,
-        results_csv: csv_path,
-        summary_md,
-        pictures,
-        notes,
-        wall_s: started.elapsed().as_secs_f64(),
-    })
+    Ok((summary_md, pictures, notes))
 }
 
 /// A cell's scenario and the maps its trials share.

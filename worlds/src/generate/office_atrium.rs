@@ -420,47 +420,145 @@ fn point(p: [f64; 2]) -> String {
 /// text on every machine.
 pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
     validate(p)?;
-    let w = p.floor_width;
-    let lc = p.corridor_length;
-    let la = p.atrium_length;
-    let cw = p.corridor_width;
-    let yc = 0.5 * w;
-    let (ys, yn) = (yc - 0.5 * cw, yc + 0.5 * cw);
-    let (ya0, ya1) = (yc - 0.5 * p.atrium_width, yc + 0.5 * p.atrium_width);
-    let xe = lc + la;
-    let dw = p.door_width;
+    let floor = Floor::new(p);
+    let (mut pieces, units, corridor_units) = glass_candidates(&floor);
+    let glass_section = glaze(p, &mut pieces, &units, corridor_units);
+    let walls = walls(&floor, &pieces);
+    let pillars = pillars(p, &floor)?;
+    let (rooms, atrium) = rooms(&floor);
+    let boxes = clutter(p, &floor, &rooms, &atrium, &pillars)?;
+    let aps = access_points(p, &floor)?;
+    let plan = Plan {
+        floor,
+        walls,
+        glass_section,
+        pillars,
+        rooms,
+        atrium,
+        boxes,
+        aps,
+    };
+    Ok(world_text(p, &plan))
+}
 
-    // Room partitions (shared by both sides, so rooms face each other) and doors.
-    let n_rooms = p.room_count as usize;
-    let mut xs = vec![0.0];
-    if n_rooms > 0 {
-        let mut rng = Stream::new(p.seed, "rooms");
-        let widths: Vec<f64> = (0..n_rooms)
-            .map(|_| 1.0 + p.room_width_jitter * (2.0 * rng.unit() - 1.0))
-            .collect();
-        let scale = lc / widths.iter().sum::<f64>();
-        let mut x = 0.0;
-        for wi in &widths[..n_rooms - 1] {
-            x += wi * scale;
-            xs.push(x);
+/// The floor's dimensions (on wall centre lines, see the module documentation) and where its
+/// room partitions and doors are.
+struct Floor {
+    /// Wing width (y), corridor length and atrium length (x).
+    w: f64,
+    lc: f64,
+    la: f64,
+    /// The corridor axis, and the corridor's south and north wall lines.
+    yc: f64,
+    ys: f64,
+    yn: f64,
+    /// The atrium's south and north wall lines, and the building's east end.
+    ya0: f64,
+    ya1: f64,
+    xe: f64,
+    dw: f64,
+    n_rooms: usize,
+    /// Section boundaries along the corridor, from 0 to `lc`: room partitions, or equal
+    /// sections when there are no rooms.
+    xs: Vec<f64>,
+    /// doors[side][i]: the west end of room i's door; side 0 south, 1 north.
+    doors: [Vec<f64>; 2],
+}
+
+impl Floor {
+    fn new(p: &GeneratorParams) -> Floor {
+        let w = p.floor_width;
+        let lc = p.corridor_length;
+        let la = p.atrium_length;
+        let cw = p.corridor_width;
+        let yc = 0.5 * w;
+        let (ys, yn) = (yc - 0.5 * cw, yc + 0.5 * cw);
+        let (ya0, ya1) = (yc - 0.5 * p.atrium_width, yc + 0.5 * p.atrium_width);
+        let xe = lc + la;
+        let dw = p.door_width;
+
+        // Room partitions (shared by both sides, so rooms face each other) and doors.
+        let n_rooms = p.room_count as usize;
+        let mut xs = vec![0.0];
+        if n_rooms > 0 {
+            let mut rng = Stream::new(p.seed, "rooms");
+            let widths: Vec<f64> = (0..n_rooms)
+                .map(|_| 1.0 + p.room_width_jitter * (2.0 * rng.unit() - 1.0))
+                .collect();
+            let scale = lc / widths.iter().sum::<f64>();
+            let mut x = 0.0;
+            for wi in &widths[..n_rooms - 1] {
+                x += wi * scale;
+                xs.push(x);
+            }
+        } else {
+            let n = (lc / BARE_SECTION).ceil().max(1.0) as usize;
+            xs.extend((1..n).map(|k| lc * k as f64 / n as f64));
         }
-    } else {
-        let n = (lc / BARE_SECTION).ceil().max(1.0) as usize;
-        xs.extend((1..n).map(|k| lc * k as f64 / n as f64));
-    }
-    xs.push(lc);
-    let sections = xs.len() - 1;
-    // doors[side][i]: the west end of room i's door; side 0 south, 1 north.
-    let mut doors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
-    if n_rooms > 0 {
-        let mut rng = Stream::new(p.seed, "doors");
-        for side in &mut doors {
-            for i in 0..n_rooms {
-                side.push(rng.range(xs[i] + DOOR_MARGIN, xs[i + 1] - DOOR_MARGIN - dw));
+        xs.push(lc);
+        let mut doors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+        if n_rooms > 0 {
+            let mut rng = Stream::new(p.seed, "doors");
+            for side in &mut doors {
+                for i in 0..n_rooms {
+                    side.push(rng.range(xs[i] + DOOR_MARGIN, xs[i + 1] - DOOR_MARGIN - dw));
+                }
             }
         }
+        Floor {
+            w,
+            lc,
+            la,
+            yc,
+            ys,
+            yn,
+            ya0,
+            ya1,
+            xe,
+            dw,
+            n_rooms,
+            xs,
+            doors,
+        }
     }
 
+    fn sections(&self) -> usize {
+        self.xs.len() - 1
+    }
+}
+
+/// Everything the world file lists, placed.
+struct Plan {
+    floor: Floor,
+    walls: Vec<WallOut>,
+    /// Per corridor section, whether it is mostly glass.
+    glass_section: Vec<bool>,
+    pillars: Vec<[f64; 2]>,
+    rooms: Vec<Room>,
+    atrium: Rect,
+    /// Furniture boxes and their kinds (indices into [`FURNITURE`]).
+    boxes: Vec<(Rect, usize)>,
+    aps: Vec<[f64; 2]>,
+}
+
+/// A room: its name, its floor, and its door (x0, x1, y of the corridor wall).
+type Room = (String, Rect, [f64; 3]);
+
+/// The corridor and atrium wall pieces that may be glazed, grouped in glass units (indices
+/// into the pieces), and how many of the units (the first) are corridor sections.
+fn glass_candidates(f: &Floor) -> (Vec<Piece>, Vec<Vec<usize>>, usize) {
+    let Floor {
+        lc,
+        ys,
+        yn,
+        ya0,
+        ya1,
+        xe,
+        dw,
+        n_rooms,
+        ..
+    } = *f;
+    let (xs, doors, sections) = (&f.xs, &f.doors, f.sections());
     // Glass candidates, in units.
     let mut pieces: Vec<Piece> = Vec::new();
     let mut units: Vec<Vec<usize>> = Vec::new();
@@ -564,7 +662,17 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             });
         }
     }
-    // Glaze whole units in a seeded order; the first that would overshoot in part.
+    (pieces, units, corridor_units)
+}
+
+/// Glazes whole units in a seeded order, the first that would overshoot in part; returns per
+/// corridor section whether at least half its wall length is glass.
+fn glaze(
+    p: &GeneratorParams,
+    pieces: &mut [Piece],
+    units: &[Vec<usize>],
+    corridor_units: usize,
+) -> Vec<bool> {
     let total: f64 = pieces.iter().map(Piece::len).sum();
     let mut remaining = p.glass_fraction * total;
     let mut order: Vec<usize> = (0..units.len()).collect();
@@ -596,8 +704,23 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             g >= 0.5 * l
         })
         .collect();
+    glass_section
+}
 
-    // Every wall.
+/// Every wall: the wing's outline, the corridor and atrium pieces (glass where glazed) and the
+/// room partitions.
+fn walls(f: &Floor, pieces: &[Piece]) -> Vec<WallOut> {
+    let Floor {
+        w,
+        lc,
+        ys,
+        yn,
+        ya0,
+        ya1,
+        n_rooms,
+        ..
+    } = *f;
+    let xs = &f.xs;
     let mut walls: Vec<WallOut> = Vec::new();
     // Office wing outline (concrete), each side extended past its end over the corner.
     let e = 0.5 * T_OUTER;
@@ -630,7 +753,7 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             note: note.to_string(),
         });
     }
-    for pc in &pieces {
+    for pc in pieces {
         let len = pc.len();
         let d = [(pc.b[0] - pc.a[0]) / len, (pc.b[1] - pc.a[1]) / len];
         let at = |t: f64| [pc.a[0] + t * d[0], pc.a[1] + t * d[1]];
@@ -684,9 +807,13 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             });
         }
     }
+    walls
+}
 
-    // Pillars: a grid symmetric about the atrium's centre lines, none on them (the corridor
-    // axis stays an open aisle).
+/// Pillars: a grid symmetric about the atrium's centre lines, none on them (the corridor
+/// axis stays an open aisle).
+fn pillars(p: &GeneratorParams, f: &Floor) -> Result<Vec<[f64; 2]>, ParamError> {
+    let Floor { lc, la, yc, .. } = *f;
     let mut pillars: Vec<[f64; 2]> = Vec::new();
     if p.pillar_spacing > 0.0 {
         let s = p.pillar_spacing;
@@ -719,9 +846,25 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             }
         }
     }
+    Ok(pillars)
+}
 
-    // Rooms, atrium and corridor regions.
-    let mut rooms: Vec<(String, Rect, [f64; 3])> = Vec::new(); // name, rect, door x0, x1, y
+/// The rooms and the atrium.
+fn rooms(f: &Floor) -> (Vec<Room>, Rect) {
+    let Floor {
+        w,
+        ys,
+        yn,
+        ya0,
+        ya1,
+        xe,
+        lc,
+        dw,
+        n_rooms,
+        ..
+    } = *f;
+    let (xs, doors) = (&f.xs, &f.doors);
+    let mut rooms: Vec<Room> = Vec::new();
     if n_rooms > 0 {
         for i in 0..n_rooms {
             let (x0, x1) = (xs[i], xs[i + 1]);
@@ -755,11 +898,21 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
         x1: xe,
         y1: ya1,
     };
+    (rooms, atrium)
+}
 
-    // Clutter: furniture in the rooms and the atrium, clear of walls, doorways, the atrium
-    // aisle on the corridor axis, pillars and each other.
+/// Clutter: furniture in the rooms and the atrium, clear of walls, doorways, the atrium
+/// aisle on the corridor axis, pillars and each other.
+fn clutter(
+    p: &GeneratorParams,
+    f: &Floor,
+    rooms: &[Room],
+    atrium: &Rect,
+    pillars: &[[f64; 2]],
+) -> Result<Vec<(Rect, usize)>, ParamError> {
+    let Floor { ys, yn, lc, xe, .. } = *f;
     let mut areas: Vec<(Rect, Vec<Rect>)> = Vec::new(); // where, keep-out zones
-    for (_, r, door) in &rooms {
+    for (_, r, door) in rooms {
         let keep = if door[2] == yn {
             Rect {
                 x0: door[0] - 0.5,
@@ -778,7 +931,7 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
         areas.push((*r, vec![keep]));
     }
     areas.push((
-        atrium,
+        *atrium,
         vec![Rect {
             x0: lc,
             y0: ys - 0.75,
@@ -799,66 +952,76 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
         ));
     }
     let mut boxes: Vec<(Rect, usize)> = Vec::new();
-    {
-        let mut rng = Stream::new(p.seed, "clutter");
-        let inset = 0.5 * T_OUTER + CLUTTER_GAP;
-        for placed in 0..n_clutter {
-            let mut ok = None;
-            for _ in 0..CLUTTER_TRIES {
-                let mut pick = rng.unit() * clutter_area;
-                let mut which = areas.len() - 1;
-                for (k, (r, _)) in areas.iter().enumerate() {
-                    if pick < r.area() {
-                        which = k;
-                        break;
-                    }
-                    pick -= r.area();
-                }
-                let kind = rng.index(FURNITURE.len());
-                let (_, mut sx, mut sy, _) = FURNITURE[kind];
-                if rng.unit() < 0.5 {
-                    std::mem::swap(&mut sx, &mut sy);
-                }
-                let (area, keep) = &areas[which];
-                let (lo_x, hi_x) = (area.x0 + inset + 0.5 * sx, area.x1 - inset - 0.5 * sx);
-                let (lo_y, hi_y) = (area.y0 + inset + 0.5 * sy, area.y1 - inset - 0.5 * sy);
-                let (cx, cy) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
-                if lo_x > hi_x || lo_y > hi_y {
-                    continue;
-                }
-                let (cx, cy) = (lo_x + cx * (hi_x - lo_x), lo_y + cy * (hi_y - lo_y));
-                let b = Rect {
-                    x0: cx - 0.5 * sx,
-                    y0: cy - 0.5 * sy,
-                    x1: cx + 0.5 * sx,
-                    y1: cy + 0.5 * sy,
-                };
-                let clear = keep.iter().all(|k| b.gap(k) > 0.0)
-                    && pillars
-                        .iter()
-                        .all(|&c| b.distance_to(c) > p.pillar_radius + CLUTTER_GAP)
-                    && boxes.iter().all(|(o, _)| b.gap(o) > CLUTTER_GAP);
-                if clear {
-                    ok = Some((b, kind));
+    let mut rng = Stream::new(p.seed, "clutter");
+    let inset = 0.5 * T_OUTER + CLUTTER_GAP;
+    for placed in 0..n_clutter {
+        let mut ok = None;
+        for _ in 0..CLUTTER_TRIES {
+            let mut pick = rng.unit() * clutter_area;
+            let mut which = areas.len() - 1;
+            for (k, (r, _)) in areas.iter().enumerate() {
+                if pick < r.area() {
+                    which = k;
                     break;
                 }
+                pick -= r.area();
             }
-            let Some(b) = ok else {
-                return Err(ParamError::new(
-                    "clutter_density",
-                    format!(
-                        "the floor is full: placed {placed} of {n_clutter} boxes \
-                         ({} per 100 m²) before finding no free spot in {CLUTTER_TRIES} \
-                         tries; use a lower density",
-                        p.clutter_density
-                    ),
-                ));
+            let kind = rng.index(FURNITURE.len());
+            let (_, mut sx, mut sy, _) = FURNITURE[kind];
+            if rng.unit() < 0.5 {
+                std::mem::swap(&mut sx, &mut sy);
+            }
+            let (area, keep) = &areas[which];
+            let (lo_x, hi_x) = (area.x0 + inset + 0.5 * sx, area.x1 - inset - 0.5 * sx);
+            let (lo_y, hi_y) = (area.y0 + inset + 0.5 * sy, area.y1 - inset - 0.5 * sy);
+            let (cx, cy) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            if lo_x > hi_x || lo_y > hi_y {
+                continue;
+            }
+            let (cx, cy) = (lo_x + cx * (hi_x - lo_x), lo_y + cy * (hi_y - lo_y));
+            let b = Rect {
+                x0: cx - 0.5 * sx,
+                y0: cy - 0.5 * sy,
+                x1: cx + 0.5 * sx,
+                y1: cy + 0.5 * sy,
             };
-            boxes.push(b);
+            let clear = keep.iter().all(|k| b.gap(k) > 0.0)
+                && pillars
+                    .iter()
+                    .all(|&c| b.distance_to(c) > p.pillar_radius + CLUTTER_GAP)
+                && boxes.iter().all(|(o, _)| b.gap(o) > CLUTTER_GAP);
+            if clear {
+                ok = Some((b, kind));
+                break;
+            }
         }
+        let Some(b) = ok else {
+            return Err(ParamError::new(
+                "clutter_density",
+                format!(
+                    "the floor is full: placed {placed} of {n_clutter} boxes \
+                     ({} per 100 m²) before finding no free spot in {CLUTTER_TRIES} \
+                     tries; use a lower density",
+                    p.clutter_density
+                ),
+            ));
+        };
+        boxes.push(b);
     }
+    Ok(boxes)
+}
 
-    // Access points: a square grid, one row on the corridor axis, inside the outline.
+/// Access points: a square grid, one row on the corridor axis, inside the outline.
+fn access_points(p: &GeneratorParams, f: &Floor) -> Result<Vec<[f64; 2]>, ParamError> {
+    let Floor {
+        w,
+        lc,
+        yc,
+        ya0,
+        ya1,
+        xe,
+        ..
+    } = *f;
     let mut aps: Vec<[f64; 2]> = Vec::new();
     if p.ap_spacing > 0.0 {
         let s = p.ap_spacing;
@@ -893,8 +1056,33 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             }
         }
     }
+    Ok(aps)
+}
 
-    // The text.
+/// The world file's text.
+fn world_text(p: &GeneratorParams, plan: &Plan) -> String {
+    let Floor {
+        w,
+        lc,
+        ys,
+        yn,
+        ya0,
+        ya1,
+        xe,
+        yc,
+        ..
+    } = plan.floor;
+    let Plan {
+        walls,
+        glass_section,
+        pillars,
+        rooms,
+        atrium,
+        boxes,
+        aps,
+        ..
+    } = plan;
+    let (xs, sections) = (&plan.floor.xs, plan.floor.sections());
     let mut t = String::new();
     let params = toml::Table::try_from(p).expect("plain struct");
     let _ = writeln!(
@@ -930,7 +1118,7 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
          [materials.glass]\nlaser = \"glass\"\nreflect_within_deg = 5.0\nwifi_attenuation_db = 2.5\n\n\
          [materials.wood]\nlaser = \"opaque\"\n\n",
     );
-    for wl in &walls {
+    for wl in walls {
         let _ = writeln!(
             t,
             "[[walls]] # {}\npoints = [{}, {}]\nthickness = {}\nmaterial = \"{}\"\n",
@@ -941,7 +1129,7 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             wl.material
         );
     }
-    for c in &pillars {
+    for c in pillars {
         let _ = writeln!(
             t,
             "[[pillars]]\ncenter = {}\nradius = {}\nmaterial = \"concrete\"\n",
@@ -965,11 +1153,11 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
         };
         region(&mut t, &format!("corridor_{}", i + 1), kind, &r);
     }
-    region(&mut t, "atrium", "atrium", &atrium);
-    for (name, r, _) in &rooms {
+    region(&mut t, "atrium", "atrium", atrium);
+    for (name, r, _) in rooms {
         region(&mut t, name, "room", r);
     }
-    for (b, kind) in &boxes {
+    for (b, kind) in boxes {
         let (what, _, _, h) = FURNITURE[*kind];
         let _ = writeln!(
             t,
@@ -993,8 +1181,8 @@ pub fn generate(p: &GeneratorParams) -> Result<String, ParamError> {
             [1, 6, 11][k % 3]
         );
     }
-    lights(&mut t, p, &rooms, &atrium, yc);
-    Ok(t)
+    lights(&mut t, p, rooms, atrium, yc);
+    t
 }
 
 fn region(t: &mut String, name: &str, kind: &str, r: &Rect) {
