@@ -11,6 +11,7 @@ pub mod chooser;
 pub mod landmark;
 mod param_errors;
 pub mod process;
+pub mod start_pose;
 pub mod wifi;
 
 use crate::error::ScenarioError;
@@ -28,11 +29,11 @@ type Factory = fn(&mut BuildContext) -> Built;
 impl LocalizerRegistry {
     /// A registry holding every built-in kind: `dead_reckoning`, `mcl`, `ekf_slam`,
     /// `cgr_laser`, `cgr_depth`, `wifi`, `landmark_filter`, `appearance`, `ceiling_mcl`,
-    /// `omni`, `chooser`, `fused` and `process` (a localizer in another process, any
-    /// language).
+    /// `omni`, `chooser`, `fused`, `process` (a localizer in another process, any
+    /// language) and `start_pose` (a stand-in that never moves from the start).
     pub fn with_builtins() -> Self {
         let mut r = LocalizerRegistry::empty();
-        let kinds: [(&str, Factory); 13] = [
+        let kinds: [(&str, Factory); 14] = [
             ("dead_reckoning", dead_reckoning),
             ("mcl", mcl),
             ("ekf_slam", ekf_slam),
@@ -58,6 +59,7 @@ impl LocalizerRegistry {
             ("chooser", chooser::build),
             ("fused", chooser::build),
             ("process", process::build),
+            ("start_pose", start_pose::build),
         ];
         for (kind, factory) in kinds {
             r.register(kind, factory)
