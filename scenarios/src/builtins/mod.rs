@@ -59,7 +59,7 @@ impl LocalizerRegistry {
             ("chooser", chooser::build),
             ("fused", chooser::build),
             ("process", process::build),
-            ("start_pose", start_pose::build),
+            ("start_pose", start_pose),
         ];
         for (kind, factory) in kinds {
             r.register(kind, factory)
@@ -75,6 +75,15 @@ fn dead_reckoning(ctx: &mut BuildContext) -> Built {
     }
     let start = dead_reckoning_start(ctx.scenario, ctx.seed());
     Ok(Box::new(DeadReckoning::new(&ctx.spec.name, start)))
+}
+
+/// The start stand-in starts where dead reckoning does, and stays there.
+fn start_pose(ctx: &mut BuildContext) -> Built {
+    if let Some(k) = ctx.spec.params.keys().next() {
+        return Err(ctx.error(k, "start_pose takes no parameters"));
+    }
+    let start = dead_reckoning_start(ctx.scenario, ctx.seed());
+    Ok(Box::new(start_pose::StartPose::new(&ctx.spec.name, start)))
 }
 
 /// Where dead reckoning starts: what the other localizers are told, no more. Tracking: the

@@ -5,8 +5,6 @@
 //! claim one it wins (the open-area trials of [004] §3 drove back to the start, see
 //! docs/design/0034-open-area-table-over-seeds.md). Name it in `[expect] baselines`.
 
-use super::{dead_reckoning_start, Built};
-use crate::registry::BuildContext;
 use atrium_localization::{Estimate, Localizer, LocalizerError, OdometryDelta};
 use atrium_robots::{Pose2, Reading};
 use nalgebra::Matrix3;
@@ -52,14 +50,6 @@ impl Localizer for StartPose {
             covariance: Matrix3::zeros(),
         }
     }
-}
-
-pub(super) fn build(ctx: &mut BuildContext) -> Built {
-    if let Some(k) = ctx.spec.params.keys().next() {
-        return Err(ctx.error(k, "start_pose takes no parameters"));
-    }
-    let start = dead_reckoning_start(ctx.scenario, ctx.seed());
-    Ok(Box::new(StartPose::new(&ctx.spec.name, start)))
 }
 
 #[cfg(test)]
