@@ -193,9 +193,13 @@ pub struct ConditionResult {
     pub disparity_missing: f64,
     pub intensity: ErrorStats,
     pub intensity_disparity: ErrorStats,
-    /// Disparity alone with J = `j_intensity` (not in the paper's figure; says which half of
-    /// the fusion carries it).
+    /// Disparity alone with J = `j_intensity`, the fused model's budget of training poses
+    /// (not in the paper's figure; the member the fusion must be compared with).
     pub disparity: ErrorStats,
+    /// Disparity alone with J = `j_each`: the disparity half of the fusion on its own. e is
+    /// a minimum over the model's poses, so the fused model's e is never above this one's;
+    /// the gap to `disparity` is what the intensity half costs or brings.
+    pub disparity_each: ErrorStats,
     /// The random-pose baseline: e of J = `j_intensity` training poses drawn at random in
     /// place of the model's answer, `random_draws` draws per test position. e is a minimum
     /// over J poses, so it falls as J grows whatever the model: a claim about e means
@@ -249,6 +253,9 @@ pub struct FilterRun {
 /// Names of the filter run's localizers.
 pub const APF_FUSED: &str = "apf intensity+disparity";
 pub const APF_INTENSITY: &str = "apf intensity";
+/// The same filter on disparity alone: the §VI rule with w_d = 1 and the fused model's
+/// budget of J = `j_intensity` training poses.
+pub const APF_DISPARITY: &str = "apf disparity";
 pub const APF_RANDOM: &str = "apf random-pose model";
 pub const DEAD_RECKONING: &str = "dead reckoning";
 
@@ -552,16 +559,24 @@ fn run_filter(
         w_d: exp.fusion_weight,
         ..Default::default()
     };
+    // Disparity alone: w_d = 1 drops the intensity half from the mixture, and J per sensor
+    // is the fused model's total, so both filters get as many proposals per frame.
+    let disparity_only = ApfParams {
+        w_d: 1.0,
+        j_each: exp.j_intensity,
+        ..params.clone()
+    };
     let belief = InitialBelief::Global { regions: vec![] };
     let c = &exp.stereo.camera;
     let mut tracks = Vec::new();
     let mut start = None;
-    for (name, m) in [
-        (APF_FUSED, model),
-        (APF_INTENSITY, &intensity_only),
-        (APF_RANDOM, random_model),
+    for (name, m, p) in [
+        (APF_FUSED, model, &params),
+        (APF_INTENSITY, &intensity_only, &params),
+        (APF_DISPARITY, model, &disparity_only),
+        (APF_RANDOM, random_model, &params),
     ] {
-        let mut apf = AppearanceApf::new(name, params.clone(), m.clone(), &belief, seed)
+        let mut apf = AppearanceApf::new(name, p.clone(), m.clone(), &belief, seed)
             .map_err(|e| e.to_string())?;
         start.get_or_insert(apf.estimate().pose);
         let mut error = Vec::with_capacity(truth.len());
@@ -615,7 +630,7 @@ fn run_filter(
     }
     // Dead reckoning from the belief (the filter's first estimate: the middle of the
     // area), not from the truth, which a global start does not know.
-    let s = start.expect("three filters ran");
+    let s = start.expect("the filters ran");
     let dr: Vec<f64> = odo
         .iter()
         .zip(truth)
@@ -674,6 +689,7 @@ pub fn run(world: &World, exp: &LabExperiment) -> Result<LabReport, String> {
             |_, f| reduce(f),
         )?;
         let (mut ei, mut ef, mut ed, mut er) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut ed_each = Vec::new();
         let (mut ci, mut cd, mut cj): (Vec<Component>, Vec<Component>, Vec<Component>) =
             (Vec::new(), Vec::new(), Vec::new());
         let mut both = Vec::new();
@@ -690,6 +706,7 @@ pub fn run(world: &World, exp: &LabExperiment) -> Result<LabReport, String> {
                 .map_err(|e| e.to_string())?;
             dmap.sensor_model(&yd, exp.j_each, &mut cd)
                 .map_err(|e| e.to_string())?;
+            ed_each.push(sensor_model_error(r, &cd).ok_or("empty sensor model")?);
             atrium_localization::appearance::fuse(&cd, &ci, exp.fusion_weight, &mut both)
                 .map_err(|e| e.to_string())?;
             ef.push(sensor_model_error(r, &both).ok_or("empty sensor model")?);
@@ -718,6 +735,7 @@ pub fn run(world: &World, exp: &LabExperiment) -> Result<LabReport, String> {
             intensity: ErrorStats::of(&ei),
             intensity_disparity: ErrorStats::of(&ef),
             disparity: ErrorStats::of(&ed),
+            disparity_each: ErrorStats::of(&ed_each),
             random: ErrorStats::of(&er),
             per_position: ei
                 .iter()
@@ -790,6 +808,13 @@ pub struct AppearanceSettings {
     /// Claim: under these lights intensity + disparity has a lower mean and a lower variance
     /// of e than intensity alone.
     pub disparity_helps: Vec<LightingCondition>,
+    /// Claim: under these lights intensity + disparity (J = j_each + j_each) has a lower
+    /// mean e than disparity alone with the same budget (J = j_intensity).
+    pub fused_beats_disparity: Vec<LightingCondition>,
+    /// Claim: under these lights disparity alone (J = j_intensity) has a lower mean e than
+    /// intensity + disparity: the fusion loses to its own member there (see
+    /// docs/design/0014-appearance-at-the-papers-size.md for why).
+    pub disparity_beats_fused: Vec<LightingCondition>,
     /// Claim: under these lights the mean e of intensity + disparity is at most
     /// `random_ratio_max` times the random-pose baseline's, and at least 3 standard errors
     /// below it.
@@ -835,6 +860,8 @@ impl Default for AppearanceSettings {
             seed: None,
             training_error_max: None,
             disparity_helps: Vec::new(),
+            fused_beats_disparity: Vec::new(),
+            disparity_beats_fused: Vec::new(),
             beats_random: Vec::new(),
             random_ratio_max: 0.5,
             within_1px_min: None,
@@ -1031,6 +1058,8 @@ pub fn parse_settings(
     }
     for (key, list) in [
         ("disparity_helps", &s.disparity_helps),
+        ("fused_beats_disparity", &s.fused_beats_disparity),
+        ("disparity_beats_fused", &s.disparity_beats_fused),
         ("beats_random", &s.beats_random),
         ("filter_lighting", &s.filter_lighting),
     ] {
@@ -1125,6 +1154,10 @@ impl AppearanceOutcome {
                 (
                     format!("disparity (J = {})", self.j_intensity),
                     &c.disparity,
+                ),
+                (
+                    format!("disparity (J = {})", self.j_each),
+                    &c.disparity_each,
                 ),
                 (
                     format!("random poses (J = {})", self.j_intensity),
@@ -1273,6 +1306,35 @@ pub fn check_claims(settings: &AppearanceSettings, report: &LabReport) -> Vec<Ap
                     f.mean, i.mean, f.variance, i.variance
                 ),
             });
+        }
+    }
+    for (lights, fused_wins) in [
+        (&settings.fused_beats_disparity, true),
+        (&settings.disparity_beats_fused, false),
+    ] {
+        for l in lights {
+            if let Some(c) = cond(l) {
+                let (f, d) = (&c.intensity_disparity, &c.disparity);
+                checks.push(AppearanceCheck {
+                    claim: if fused_wins {
+                        format!("{}: intensity+disparity beats disparity alone", c.lighting)
+                    } else {
+                        format!("{}: disparity alone beats intensity+disparity", c.lighting)
+                    },
+                    passed: (f.mean < d.mean) == fused_wins,
+                    detail: format!(
+                        "mean e {:.1} (intensity+disparity, {} + {}) vs {:.1} (disparity, J = {}); disparity's own half (J = {}) {:.1}, intensity {:.1}",
+                        f.mean,
+                        settings.j_each,
+                        settings.j_each,
+                        d.mean,
+                        settings.j_intensity,
+                        settings.j_each,
+                        c.disparity_each.mean,
+                        c.intensity.mean
+                    ),
+                });
+            }
         }
     }
     if let Some(min) = settings.within_1px_min {

@@ -196,7 +196,9 @@ impl PoseKernel {
 }
 
 /// §VI disjunctive fusion: the mixture w_d · (disparity model) + w_i · (intensity model), as
-/// one list of components with their weights scaled. `w_d` in [0, 1]; w_i = 1 − w_d.
+/// one list of components with their weights scaled. `w_d` in [0, 1]; w_i = 1 − w_d. A member
+/// of weight 0 is not in the mixture at all (w_d = 1 is disparity alone), so it proposes
+/// no training pose and counts in no sensor-model error.
 pub fn fuse(
     disparity: &[Component],
     intensity: &[Component],
@@ -209,14 +211,14 @@ pub fn fuse(
         )));
     }
     out.clear();
-    out.extend(disparity.iter().map(|c| Component {
-        weight: c.weight * w_d,
-        ..*c
-    }));
-    out.extend(intensity.iter().map(|c| Component {
-        weight: c.weight * (1.0 - w_d),
-        ..*c
-    }));
+    for (member, w) in [(disparity, w_d), (intensity, 1.0 - w_d)] {
+        if w > 0.0 {
+            out.extend(member.iter().map(|c| Component {
+                weight: c.weight * w,
+                ..*c
+            }));
+        }
+    }
     Ok(())
 }
 
@@ -304,5 +306,10 @@ mod tests {
         assert!((h - 0.1f64.to_degrees()).abs() < 1e-9);
         assert!((e - (p * p + h * h).sqrt()).abs() < 1e-9);
         assert!(fuse(&a, &b, 1.5, &mut f).is_err());
+        // w_d = 1 is disparity alone: the intensity member's poses are gone, not weighted 0.
+        fuse(&a, &b, 1.0, &mut f).unwrap();
+        assert_eq!(f, a);
+        fuse(&a, &b, 0.0, &mut f).unwrap();
+        assert_eq!(f, b);
     }
 }

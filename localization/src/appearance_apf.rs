@@ -622,19 +622,24 @@ impl AppearanceApf {
         self.core.refresh_estimate(PointEstimate::WeightedMean);
     }
 
-    /// Runs the step of an observation left waiting for its stereo partner, alone.
+    /// Runs the step of an observation left waiting for its stereo partner, alone. A member
+    /// of fusion weight 0 is no part of the sensor model, so it never steps alone either.
     fn flush_older_than(&mut self, stamp: f64) {
         if self.intensity.full && self.intensity.stamp < stamp {
             self.intensity.full = false;
-            let comps = std::mem::take(&mut self.intensity.components);
-            self.step(&comps);
-            self.intensity.components = comps;
+            if self.params.w_d < 1.0 {
+                let comps = std::mem::take(&mut self.intensity.components);
+                self.step(&comps);
+                self.intensity.components = comps;
+            }
         }
         if self.disparity.full && self.disparity.stamp < stamp {
             self.disparity.full = false;
-            let comps = std::mem::take(&mut self.disparity.components);
-            self.step(&comps);
-            self.disparity.components = comps;
+            if self.params.w_d > 0.0 {
+                let comps = std::mem::take(&mut self.disparity.components);
+                self.step(&comps);
+                self.disparity.components = comps;
+            }
         }
     }
 

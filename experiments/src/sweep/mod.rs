@@ -18,6 +18,7 @@ pub mod maps;
 pub mod markdown;
 pub mod merge;
 pub mod origin;
+pub mod over_seeds;
 pub mod run;
 pub mod summary;
 

@@ -11,6 +11,7 @@ pub mod chooser;
 pub mod landmark;
 mod param_errors;
 pub mod process;
+pub mod start_pose;
 pub mod wifi;
 
 use crate::error::ScenarioError;
@@ -28,11 +29,11 @@ type Factory = fn(&mut BuildContext) -> Built;
 impl LocalizerRegistry {
     /// A registry holding every built-in kind: `dead_reckoning`, `mcl`, `ekf_slam`,
     /// `cgr_laser`, `cgr_depth`, `wifi`, `landmark_filter`, `appearance`, `ceiling_mcl`,
-    /// `omni`, `chooser`, `fused` and `process` (a localizer in another process, any
-    /// language).
+    /// `omni`, `chooser`, `fused`, `process` (a localizer in another process, any
+    /// language) and `start_pose` (a stand-in that never moves from the start).
     pub fn with_builtins() -> Self {
         let mut r = LocalizerRegistry::empty();
-        let kinds: [(&str, Factory); 13] = [
+        let kinds: [(&str, Factory); 14] = [
             ("dead_reckoning", dead_reckoning),
             ("mcl", mcl),
             ("ekf_slam", ekf_slam),
@@ -58,6 +59,7 @@ impl LocalizerRegistry {
             ("chooser", chooser::build),
             ("fused", chooser::build),
             ("process", process::build),
+            ("start_pose", start_pose),
         ];
         for (kind, factory) in kinds {
             r.register(kind, factory)
@@ -73,6 +75,15 @@ fn dead_reckoning(ctx: &mut BuildContext) -> Built {
     }
     let start = dead_reckoning_start(ctx.scenario, ctx.seed());
     Ok(Box::new(DeadReckoning::new(&ctx.spec.name, start)))
+}
+
+/// The start stand-in starts where dead reckoning does, and stays there.
+fn start_pose(ctx: &mut BuildContext) -> Built {
+    if let Some(k) = ctx.spec.params.keys().next() {
+        return Err(ctx.error(k, "start_pose takes no parameters"));
+    }
+    let start = dead_reckoning_start(ctx.scenario, ctx.seed());
+    Ok(Box::new(start_pose::StartPose::new(&ctx.spec.name, start)))
 }
 
 /// Where dead reckoning starts: what the other localizers are told, no more. Tracking: the
