@@ -104,6 +104,8 @@ pub struct RobotInspection {
     pub model: RobotModel,
     /// Every revolving joint that is not a drive wheel, in tree order (parents first).
     pub excluded_joints: Vec<ExcludedJoint>,
+    /// Where the wheel radius and track came from.
+    pub drive_source: crate::drive_override::DriveSource,
 }
 
 /// How the driven wheels move the robot.
