@@ -3,34 +3,11 @@
 //! `fixed` (the Neobotix MP-400), or a wheel whose collision cylinder is not its true size.
 
 use crate::error::RobotError;
-use crate::model::{DriveKind, RobotModel, TrackSource};
+use crate::model::{DriveKind, DriveOverride, RobotModel, TrackSource};
 use crate::urdf::{
     MAX_WHEEL_RADIUS_M, MAX_WHEEL_RADIUS_PER_SEPARATION, MIN_WHEEL_RADIUS_M, MIN_WHEEL_SEPARATION_M,
 };
 use std::path::Path;
-
-/// The drive geometry a user states in place of (or over) the URDF's.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct DriveOverride {
-    /// Radius of every driven wheel, m.
-    pub wheel_radius: Option<f64>,
-    /// Distance between the left and right wheels' contact lines (the wheel separation; for a
-    /// skid steer the geometric track), m.
-    pub track: Option<f64>,
-}
-
-/// Where a robot's drive geometry came from, for `atrium inspect robot`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum DriveSource {
-    /// The URDF's wheel joints and their collision (or visual) cylinders and spheres.
-    #[default]
-    Urdf,
-    /// `[robot] wheel_radius` and/or `track` over the URDF's wheels.
-    Override,
-    /// Wheels the URDF describes with meshes only (or on fixed joints), placed by `[robot]
-    /// track` and sized by `[robot] wheel_radius`.
-    OverrideMeshWheels,
-}
 
 impl DriveOverride {
     pub fn is_empty(&self) -> bool {

@@ -21,15 +21,14 @@ pub mod wifi;
 
 pub use depth_camera::DepthCameraSpec;
 pub use diff_drive::DiffDrive;
-pub use drive_override::{DriveOverride, DriveSource};
 pub use error::RobotError;
 pub use gazebo::{read_gazebo_sensors, GazeboSensors};
 pub use generic::generic_robot_urdf;
 pub use images::{DisparityImage, IntensityImage};
 pub use landmark_detector::{Association, LandmarkDetectorSpec};
 pub use model::{
-    Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, UrdfJoint,
-    Wheel,
+    Caster, DriveOverride, DriveSource, ExcludedJoint, LinkMount, RobotInspection, RobotModel,
+    Shape, ShapeInstance, UrdfJoint, Wheel,
 };
 pub use pose::{normalize_angle, Mount3, Pose2};
 pub use readings::{

@@ -10,12 +10,11 @@
 //! and the limit. Loading is linear in the size of the file.
 
 use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
-use crate::drive_override::{DriveOverride, DriveSource};
 use crate::error::RobotError;
 use crate::model::UrdfJoint;
 use crate::model::{
-    Caster, DriveKind, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance,
-    SkidSteer, TrackSource, Wheel,
+    Caster, DriveKind, DriveOverride, DriveSource, ExcludedJoint, LinkMount, RobotInspection,
+    RobotModel, Shape, ShapeInstance, SkidSteer, TrackSource, Wheel,
 };
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{HashMap, HashSet};
@@ -1809,7 +1808,7 @@ fn override_hint(nodes: &[Node], geometry: &[LinkGeometry]) -> String {
             wheel && !is_caster_name(&n.link.name) && (!round || fixed)
         })
         .map(|(n, g)| {
-            let joint = n.joint.map(|j| joint_kind(j)).unwrap_or_default();
+            let joint = n.joint.map(joint_kind).unwrap_or_default();
             if g.meshes.is_empty() {
                 format!("{} ({joint} joint)", n.link.name)
             } else {
