@@ -146,3 +146,18 @@ fn the_robot_table_gives_a_mesh_wheeled_robot_its_drive() {
         .to_string();
     assert!(e.contains("robot.urdf: missing"), "{e}");
 }
+
+#[test]
+fn every_bundled_scenario_has_the_sensors_its_localizers_need() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(repo("scenarios")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            if let Err(e) = Scenario::load(&path) {
+                assert!(!e.to_string().contains(") needs "), "{e}");
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 10, "{checked}");
+}
