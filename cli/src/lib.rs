@@ -427,7 +427,8 @@ enum ExportWhat {
 
 #[derive(Subcommand)]
 enum InspectWhat {
-    /// Drive parameters and link mounts of a URDF.
+    /// Drive parameters, link mounts and sensors of a URDF (or of the robot a scenario file
+    /// names, with its [robot] wheel_radius and track), and where each came from.
     Robot {
         urdf: PathBuf,
         #[arg(long)]
@@ -766,11 +767,11 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
         Some(Command::Inspect {
             what: InspectWhat::Robot { urdf, json },
         }) => {
-            let r = atrium_robots::RobotModel::inspect_urdf(&urdf)?;
+            let r = inspect::load_robot(&urdf)?;
             if json {
-                print_json(&inspect::robot_json(&r))?;
+                print_json(&inspect::robot_report_json(&r))?;
             } else {
-                print!("{}", inspect::robot_text(&r));
+                print!("{}", inspect::robot_report_text(&r));
             }
             Ok(true)
         }

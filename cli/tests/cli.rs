@@ -252,6 +252,56 @@ fn inspect_robot_reports_fixture_geometry() {
 }
 
 #[test]
+fn inspect_robot_lists_sensors_and_drive_sources() {
+    let urdf = repo("robots/tests/fixtures/rosbot_gz.urdf");
+    let o = atrium(&["inspect", "robot", urdf.to_str().unwrap(), "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["sensor_source"]["kind"], "urdf_gazebo");
+    assert_eq!(j["drive_source"], "urdf");
+    let sensors = j["sensors"].as_array().unwrap();
+    assert_eq!(sensors.len(), 6);
+    assert_eq!(sensors[0]["name"], "slamtec_rplidar_sensor");
+    assert_eq!(sensors[0]["default_laser"], true);
+    assert_eq!(sensors[5]["kind"], "depth_camera");
+    assert_eq!(j["ignored_sensors"][0]["type"], "camera");
+    let text = atrium(&[
+        "inspect",
+        "robot",
+        repo("robots/urdf/pioneer3dx.urdf").to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&text.stdout).to_string();
+    assert!(
+        text.contains("sensors           from the sensor file"),
+        "{text}"
+    );
+    // A scenario file: its [robot] keys make the MP-400's mesh wheels.
+    let dir = tmpdir("inspect-mp400");
+    let scenario = dir.join("mp400.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "[robot]\nurdf = \"{}\"\nwheel_radius = 0.075\ntrack = 0.52\n",
+            repo("robots/tests/fixtures/mp_400.urdf").display()
+        ),
+    )
+    .unwrap();
+    let o = atrium(&["inspect", "robot", scenario.to_str().unwrap(), "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["drive_source"], "robot_table_mesh_wheels");
+    assert_eq!(j["wheel_radius"], 0.075);
+    assert_bad_input(
+        &atrium(&[
+            "inspect",
+            "robot",
+            repo("robots/tests/fixtures/mp_400.urdf").to_str().unwrap(),
+        ]),
+        &["mp_400.urdf", "wheel_radius", "track"],
+    );
+}
+
+#[test]
 fn bad_robot_and_world_files_exit_2() {
     let dir = tmpdir("bad");
     let xacro = dir.join("r.urdf.xacro");

@@ -1,10 +1,13 @@
 //! `atrium inspect robot|world`: what Atrium derived from a description file.
 
 use atrium_robots::model::{DriveKind, TrackSource};
-use atrium_robots::RobotInspection;
+use atrium_robots::{DepthCameraSpec, DriveSource, RobotInspection, RobotModel, RobotSensors};
+use atrium_scenarios::robot_input::{self, RobotSources, SensorSource};
+use atrium_scenarios::ScenarioError;
 use atrium_worlds::{LaserBehaviour, World};
 use serde_json::{json, Value};
 use std::fmt::Write;
+use std::path::{Path, PathBuf};
 
 fn v3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
@@ -34,6 +37,221 @@ fn track_source(s: &TrackSource) -> &'static str {
         TrackSource::DefaultRatio => "default_ratio",
         TrackSource::Urdf => "urdf",
     }
+}
+
+/// A robot as a scenario would load it, with its sensors and where they came from.
+pub struct RobotReport {
+    pub inspection: RobotInspection,
+    pub urdf: PathBuf,
+    pub sensors: RobotSensors,
+    pub depth_cameras: Vec<DepthCameraSpec>,
+    pub sources: RobotSources,
+}
+
+/// Loads the robot of `path`: a URDF, or a scenario file whose `robot` (a path or a `[robot]`
+/// table with `wheel_radius` and `track`) names one.
+pub fn load_robot(path: &Path) -> Result<RobotReport, ScenarioError> {
+    let read = |p: &Path| {
+        std::fs::read_to_string(p).map_err(|err| ScenarioError::Io {
+            file: p.to_path_buf(),
+            err,
+        })
+    };
+    let (urdf, drive) = if path.extension().is_some_and(|e| e == "toml") {
+        let doc: toml::Table =
+            read(path)?
+                .parse()
+                .map_err(|e: toml::de::Error| ScenarioError::Parse {
+                    file: path.to_path_buf(),
+                    msg: e.to_string(),
+                })?;
+        let value = doc.get("robot").ok_or_else(|| {
+            ScenarioError::field(path, "robot", "missing: this scenario names no robot")
+        })?;
+        let entry = robot_input::parse_robot_entry(path, value)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        (dir.join(&entry.urdf), entry.drive)
+    } else {
+        (path.to_path_buf(), Default::default())
+    };
+    let text = read(&urdf)?;
+    let mut inspection =
+        RobotModel::inspect_urdf_str_with(&text, &urdf.display().to_string(), &drive)?;
+    let (sensors, depth_cameras, mut sources) =
+        robot_input::robot_sensors(&urdf, &mut inspection.model, false)?;
+    sources.drive = inspection.drive_source;
+    Ok(RobotReport {
+        inspection,
+        urdf,
+        sensors,
+        depth_cameras,
+        sources,
+    })
+}
+
+fn sensor_source(s: &SensorSource) -> Value {
+    match s {
+        SensorSource::SensorFile(p) => json!({"kind": "sensor_file", "file": p}),
+        SensorSource::Gazebo(p) => json!({"kind": "urdf_gazebo", "file": p}),
+        SensorSource::None(p) => json!({"kind": "none", "file": p}),
+        SensorSource::Log => json!({"kind": "log"}),
+    }
+}
+
+fn sensor_source_text(s: &SensorSource) -> String {
+    match s {
+        SensorSource::SensorFile(p) => format!("the sensor file {}", p.display()),
+        SensorSource::Gazebo(p) => format!("<gazebo><sensor> blocks in {}", p.display()),
+        SensorSource::None(p) => format!(
+            "none: no sensor file beside {} and no <gazebo><sensor> blocks Atrium reads",
+            p.display()
+        ),
+        SensorSource::Log => "the log".into(),
+    }
+}
+
+fn drive_source(d: DriveSource) -> (&'static str, &'static str) {
+    match d {
+        DriveSource::Urdf => (
+            "urdf",
+            "the URDF's wheel joints and their collision (or visual) shapes",
+        ),
+        DriveSource::Override => (
+            "robot_table",
+            "the scenario's [robot] wheel_radius / track, over the URDF's wheels",
+        ),
+        DriveSource::OverrideMeshWheels => (
+            "robot_table_mesh_wheels",
+            "the scenario's [robot] wheel_radius and track, for wheels the URDF draws with \
+             meshes only",
+        ),
+    }
+}
+
+/// The sensors of `r`, each with where it came from; the first laser is the one a localizer
+/// that reads a single laser uses.
+fn sensors_json(r: &RobotReport) -> Value {
+    let source = sensor_source(&r.sources.sensors);
+    let mut out: Vec<Value> = r
+        .sensors
+        .lasers
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            json!({"kind": "laser", "name": l.name, "mount": l.mount, "rate_hz": l.rate_hz,
+                   "beams": l.beams, "fov": l.fov, "range_min": l.range_min,
+                   "range_max": l.range_max, "sigma_hit": l.sigma_hit,
+                   "default_laser": i == 0, "source": source})
+        })
+        .collect();
+    out.extend(r.depth_cameras.iter().map(|c| {
+        json!({"kind": "depth_camera", "name": c.name, "mount": c.mount, "rate_hz": c.rate_hz,
+               "width": c.width, "height": c.height, "fov_h": c.fov_h, "fov_v": c.fov_v,
+               "range_min": c.range_min, "range_max": c.range_max,
+               "noise_base": c.noise_base, "source": source})
+    }));
+    if let Some(w) = &r.sensors.wifi {
+        out.push(json!({"kind": "wifi", "name": w.name, "scan_period_s": w.scan_period_s, "source": source}));
+    }
+    Value::Array(out)
+}
+
+/// `atrium inspect robot --json` for a robot as a scenario loads it: [`robot_json`] plus its
+/// sensors and the sources of sensors and drive geometry.
+pub fn robot_report_json(r: &RobotReport) -> Value {
+    let mut j = robot_json(&r.inspection);
+    let o = j.as_object_mut().expect("robot_json is an object");
+    o.insert("urdf".into(), json!(r.urdf));
+    o.insert("sensors".into(), sensors_json(r));
+    o.insert("sensor_source".into(), sensor_source(&r.sources.sensors));
+    let odometry = match &r.sources.sensors {
+        SensorSource::SensorFile(p) => json!({"kind": "sensor_file", "file": p}),
+        _ => json!({"kind": "default"}),
+    };
+    o.insert("odometry_source".into(), odometry);
+    o.insert(
+        "drive_source".into(),
+        json!(drive_source(r.sources.drive).0),
+    );
+    o.insert(
+        "ignored_sensors".into(),
+        json!(r
+            .sources
+            .ignored
+            .iter()
+            .map(|(n, t)| json!({"name": n, "type": t}))
+            .collect::<Vec<_>>()),
+    );
+    o.insert("sensor_notes".into(), json!(r.sources.notes));
+    j
+}
+
+/// `atrium inspect robot` as text: [`robot_text`] plus the sensors and their sources.
+pub fn robot_report_text(r: &RobotReport) -> String {
+    let mut s = robot_text(&r.inspection);
+    let _ = writeln!(
+        s,
+        "\ndrive geometry    from {}",
+        drive_source(r.sources.drive).1
+    );
+    let _ = writeln!(
+        s,
+        "sensors           from {}",
+        sensor_source_text(&r.sources.sensors)
+    );
+    let _ = writeln!(
+        s,
+        "odometry          {}",
+        match &r.sources.sensors {
+            SensorSource::SensorFile(p) => format!("from {}", p.display()),
+            _ => "defaults (no sensor file)".into(),
+        }
+    );
+    for (i, l) in r.sensors.lasers.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "laser             {} on {}: {} beams over {:.1}°, {:.2}–{:.2} m, {} Hz, σ {} m{}",
+            l.name,
+            l.mount,
+            l.beams,
+            l.fov.to_degrees(),
+            l.range_min,
+            l.range_max,
+            l.rate_hz,
+            l.sigma_hit,
+            if i == 0 {
+                " (the default laser: a localizer that reads one laser uses it)"
+            } else {
+                ""
+            }
+        );
+    }
+    for c in &r.depth_cameras {
+        let _ = writeln!(
+            s,
+            "depth camera      {} on {}: {} × {} px, {:.1}° × {:.1}°, {:.2}–{:.2} m, {} Hz, σ {} m",
+            c.name,
+            c.mount,
+            c.width,
+            c.height,
+            c.fov_h.to_degrees(),
+            c.fov_v.to_degrees(),
+            c.range_min,
+            c.range_max,
+            c.rate_hz,
+            c.noise_base
+        );
+    }
+    if r.sensors.wifi.is_some() {
+        let _ = writeln!(s, "wifi              scanner from the sensor file");
+    }
+    for (name, kind) in &r.sources.ignored {
+        let _ = writeln!(s, "not simulated     {name} (Gazebo sensor type {kind:?})");
+    }
+    for n in &r.sources.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
+    s
 }
 
 /// `atrium inspect robot --json`: the model, and why each revolving joint that does not

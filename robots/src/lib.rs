@@ -5,7 +5,9 @@
 
 pub mod depth_camera;
 pub mod diff_drive;
+pub mod drive_override;
 pub mod error;
+pub mod gazebo;
 pub mod generic;
 pub mod images;
 pub mod landmark_detector;
@@ -20,12 +22,13 @@ pub mod wifi;
 pub use depth_camera::DepthCameraSpec;
 pub use diff_drive::DiffDrive;
 pub use error::RobotError;
+pub use gazebo::{read_gazebo_sensors, GazeboSensors};
 pub use generic::generic_robot_urdf;
 pub use images::{DisparityImage, IntensityImage};
 pub use landmark_detector::{Association, LandmarkDetectorSpec};
 pub use model::{
-    Caster, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance, UrdfJoint,
-    Wheel,
+    Caster, DriveOverride, DriveSource, ExcludedJoint, LinkMount, RobotInspection, RobotModel,
+    Shape, ShapeInstance, UrdfJoint, Wheel,
 };
 pub use pose::{normalize_angle, Mount3, Pose2};
 pub use readings::{

@@ -104,6 +104,8 @@ pub struct RobotInspection {
     pub model: RobotModel,
     /// Every revolving joint that is not a drive wheel, in tree order (parents first).
     pub excluded_joints: Vec<ExcludedJoint>,
+    /// Where the wheel radius and track came from.
+    pub drive_source: DriveSource,
 }
 
 /// How the driven wheels move the robot.
@@ -207,4 +209,27 @@ impl RobotModel {
     pub fn mass(&self) -> f64 {
         self.chassis_mass + self.driven_wheels().iter().map(|w| w.mass).sum::<f64>()
     }
+}
+
+/// The drive geometry a user states in place of (or over) the URDF's.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DriveOverride {
+    /// Radius of every driven wheel, m.
+    pub wheel_radius: Option<f64>,
+    /// Distance between the left and right wheels' contact lines (the wheel separation; for a
+    /// skid steer the geometric track), m.
+    pub track: Option<f64>,
+}
+
+/// Where a robot's drive geometry came from, for `atrium inspect robot`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DriveSource {
+    /// The URDF's wheel joints and their collision (or visual) cylinders and spheres.
+    #[default]
+    Urdf,
+    /// `[robot] wheel_radius` and/or `track` over the URDF's wheels.
+    Override,
+    /// Wheels the URDF describes with meshes only (or on fixed joints), placed by `[robot]
+    /// track` and sized by `[robot] wheel_radius`.
+    OverrideMeshWheels,
 }

@@ -13,8 +13,8 @@ use crate::diff_drive::DEFAULT_EFFECTIVE_TRACK_RATIO;
 use crate::error::RobotError;
 use crate::model::UrdfJoint;
 use crate::model::{
-    Caster, DriveKind, ExcludedJoint, LinkMount, RobotInspection, RobotModel, Shape, ShapeInstance,
-    SkidSteer, TrackSource, Wheel,
+    Caster, DriveKind, DriveOverride, DriveSource, ExcludedJoint, LinkMount, RobotInspection,
+    RobotModel, Shape, ShapeInstance, SkidSteer, TrackSource, Wheel,
 };
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{HashMap, HashSet};
@@ -103,18 +103,25 @@ pub(crate) fn load_file_with_report(
         source_name: path.display().to_string(),
         err,
     })?;
-    load_str_with_report(&text, &path.display().to_string())
+    load_str_with_report(
+        &text,
+        &path.display().to_string(),
+        &DriveOverride::default(),
+    )
+    .map(|(m, e, _)| (m, e))
 }
 
 pub(crate) fn load_str(text: &str, source: &str) -> Result<RobotModel, RobotError> {
-    load_str_with_report(text, source).map(|(model, _)| model)
+    load_str_with_report(text, source, &DriveOverride::default()).map(|(model, _, _)| model)
 }
 
-/// [`load_str`], plus every revolving joint that is not a drive wheel, with the reason.
+/// [`load_str`] with drive geometry `ovr` given beside the URDF, plus every revolving joint
+/// that is not a drive wheel (with the reason) and where the drive geometry came from.
 pub(crate) fn load_str_with_report(
     text: &str,
     source: &str,
-) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
+    ovr: &DriveOverride,
+) -> Result<(RobotModel, Vec<ExcludedJoint>, DriveSource), RobotError> {
     check_depth(text, source)?;
     let doc = match roxmltree::Document::parse(text) {
         Ok(doc) => doc,
@@ -139,7 +146,16 @@ pub(crate) fn load_str_with_report(
         source_name: source.into(),
         msg: format!("URDF: {e}"),
     })?;
-    build(&robot, &facts, source)
+    let (mut nodes, mut geometry) = placed_links(&robot, source)?;
+    let mesh_wheels = mesh_wheels(&mut nodes, &mut geometry, ovr);
+    let (mut model, excluded) = build(&nodes, &geometry, &mesh_wheels, &robot, &facts, source)?;
+    ovr.apply(&mut model);
+    let drive_source = match (ovr.is_empty(), mesh_wheels.is_empty()) {
+        (true, _) => DriveSource::Urdf,
+        (false, true) => DriveSource::Override,
+        (false, false) => DriveSource::OverrideMeshWheels,
+    };
+    Ok((model, excluded, drive_source))
 }
 
 /// Refuses XML nested deeper than [`MAX_XML_DEPTH`] before any parser sees it (roxmltree and
@@ -1036,17 +1052,99 @@ enum Owner {
     Caster(usize),
 }
 
-fn build(
-    robot: &urdf_rs::Robot,
-    facts: &XmlFacts,
+/// Every link placed in the base frame, with its usable geometry.
+fn placed_links<'a>(
+    robot: &'a urdf_rs::Robot,
     source: &str,
-) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
+) -> Result<(Vec<Node<'a>>, Vec<LinkGeometry>), RobotError> {
     let nodes = kinematic_tree(robot, source)?;
     let geometry: Vec<LinkGeometry> = nodes
         .iter()
         .map(|n| link_geometry(n.link, &n.pose))
         .collect();
     check_reach(&nodes, &geometry, source)?;
+    Ok((nodes, geometry))
+}
+
+/// Wheels only meshes describe, made from a complete [`DriveOverride`]: among the links whose
+/// name (or joint's name) says "wheel", that have no cylinder or sphere and are no caster (by
+/// name or mesh file), the left/right pair at the same x whose lateral distance is nearest the
+/// given track gets a cylinder of the given radius about ±y at its link origin, and counts as
+/// driven whatever its joint type (the MP-400 declares its drive joints `fixed`). Returns the
+/// indices of those links.
+fn mesh_wheels(
+    nodes: &mut [Node],
+    geometry: &mut [LinkGeometry],
+    ovr: &DriveOverride,
+) -> Vec<usize> {
+    let (Some(radius), Some(track)) = (ovr.wheel_radius, ovr.track) else {
+        return Vec::new();
+    };
+    let wheel_like = |i: usize| {
+        let n = &nodes[i];
+        let joint = n.joint.map(|j| j.name.as_str()).unwrap_or_default();
+        let named = |s: &str| s.to_ascii_lowercase().contains("wheel");
+        (named(&n.link.name) || named(joint))
+            && !is_caster_name(&n.link.name)
+            && !is_caster_name(joint)
+            && !geometry[i].meshes.iter().any(|m| is_caster_name(m))
+            && !geometry[i]
+                .prims
+                .iter()
+                .any(|p| !matches!(p.shape, Shape::Box { .. }))
+    };
+    let candidates: Vec<usize> = (1..nodes.len()).filter(|&i| wheel_like(i)).collect();
+    let at = |i: usize| nodes[i].pose.translation.vector;
+    let mut best: Option<(f64, usize, usize)> = None;
+    for &l in candidates.iter().filter(|&&i| at(i).y > 0.0) {
+        for &r in candidates.iter().filter(|&&i| at(i).y < 0.0) {
+            if (at(l).x - at(r).x).abs() > 0.01 {
+                continue;
+            }
+            let miss = ((at(l).y - at(r).y) - track).abs();
+            if best.is_none_or(|b| miss < b.0) {
+                best = Some((miss, l, r));
+            }
+        }
+    }
+    let Some((_, l, r)) = best else {
+        return Vec::new();
+    };
+    // A tyre is typically 0.4–0.7 of its radius wide; its width only shapes the contact.
+    let width = 0.5 * radius;
+    for i in [l, r] {
+        let centre = nodes[i].pose.translation.vector;
+        let sign = if centre.y > 0.0 { 1.0 } else { -1.0 };
+        let axis = nodes[i].axis;
+        if axis.y.abs() <= LATERAL {
+            nodes[i].axis = Vector3::new(0.0, sign, 0.0);
+        }
+        let rotation =
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2);
+        geometry[i].prims.push(ShapeInstance {
+            link: nodes[i].link.name.clone(),
+            shape: Shape::Cylinder {
+                radius,
+                length: width,
+            },
+            pose: Isometry3::from_parts(Translation3::from(centre), rotation),
+        });
+        geometry[i].fields.push(format!(
+            "robot.wheel_radius (link {:?} is drawn with meshes only)",
+            nodes[i].link.name
+        ));
+    }
+    vec![l, r]
+}
+
+fn build(
+    nodes: &[Node],
+    geometry: &[LinkGeometry],
+    mesh_wheels: &[usize],
+    robot: &urdf_rs::Robot,
+    facts: &XmlFacts,
+    source: &str,
+) -> Result<(RobotModel, Vec<ExcludedJoint>), RobotError> {
     let mut warnings = Vec::new();
     let mut excluded = Vec::new();
 
@@ -1068,7 +1166,7 @@ fn build(
     let mut skipped: Vec<String> = Vec::new();
     for (i, node) in nodes.iter().enumerate() {
         let Some(j) = node.joint else { continue };
-        if !is_revolving(j) {
+        if !is_revolving(j) && !mesh_wheels.contains(&i) {
             continue;
         }
         let mut exclude = |reason: String, lateral: bool| {
@@ -1193,6 +1291,7 @@ fn build(
         if !skipped.is_empty() {
             msg.push_str(&format!("; skipped: {}", skipped.join("; ")));
         }
+        msg.push_str(&override_hint(nodes, geometry));
         return Err(invalid(source, msg));
     }
     // ---- sides: left y > 0, right y < 0, each front to back
@@ -1688,6 +1787,51 @@ fn build(
     Ok((model, excluded))
 }
 
+/// The end of the "too few drive wheels" refusal: the scenario keys that give the drive
+/// geometry a URDF leaves to meshes or fixed joints, naming such wheel links when there are any.
+fn override_hint(nodes: &[Node], geometry: &[LinkGeometry]) -> String {
+    let drawn: Vec<String> = nodes
+        .iter()
+        .zip(geometry)
+        .skip(1)
+        .filter(|(n, g)| {
+            let joint = n.joint.map(|j| j.name.as_str()).unwrap_or_default();
+            let wheel = n.link.name.to_ascii_lowercase().contains("wheel")
+                || joint.to_ascii_lowercase().contains("wheel");
+            let round = g
+                .prims
+                .iter()
+                .any(|p| !matches!(p.shape, Shape::Box { .. }));
+            let fixed = n
+                .joint
+                .is_some_and(|j| matches!(j.joint_type, JointType::Fixed));
+            wheel && !is_caster_name(&n.link.name) && (!round || fixed)
+        })
+        .map(|(n, g)| {
+            let joint = n.joint.map(joint_kind).unwrap_or_default();
+            if g.meshes.is_empty() {
+                format!("{} ({joint} joint)", n.link.name)
+            } else {
+                format!(
+                    "{} ({joint} joint, mesh {})",
+                    n.link.name,
+                    g.meshes.join(", ")
+                )
+            }
+        })
+        .collect();
+    let links = if drawn.is_empty() {
+        String::new()
+    } else {
+        format!(" (wheel links here: {})", drawn.join("; "))
+    };
+    format!(
+        ". If the wheels are drawn with meshes only or sit on fixed joints{links}, give the drive \
+         geometry in the scenario: a [robot] table with urdf = \"<this file>\", wheel_radius = \
+         <m> and track = <m> (the distance between the left and right wheels)"
+    )
+}
+
 /// Refuses a robot whose driven wheels are mecanum or omni wheels (by the wheel link's or
 /// joint's name, or the file name of a mesh it is drawn with, or rollers: revolving joints
 /// hung below the wheel): Atrium drives differential and skid-steer bases, and such a base
@@ -1817,16 +1961,39 @@ impl RobotModel {
         Ok(RobotInspection {
             model,
             excluded_joints,
+            drive_source: DriveSource::Urdf,
         })
     }
 
     /// [`RobotModel::inspect_urdf`] on URDF text; `source` names it in error messages.
     pub fn inspect_urdf_str(text: &str, source: &str) -> Result<RobotInspection, RobotError> {
-        let (model, excluded_joints) = load_str_with_report(text, source)?;
+        Self::inspect_urdf_str_with(text, source, &DriveOverride::default())
+    }
+
+    /// [`RobotModel::inspect_urdf_str`] with drive geometry given beside the URDF (a
+    /// scenario's `[robot] wheel_radius` and `track`): over the URDF's wheels, or making the
+    /// wheels a URDF draws with meshes only (see [`DriveOverride`]).
+    pub fn inspect_urdf_str_with(
+        text: &str,
+        source: &str,
+        ovr: &DriveOverride,
+    ) -> Result<RobotInspection, RobotError> {
+        let (model, excluded_joints, drive_source) = load_str_with_report(text, source, ovr)?;
         Ok(RobotInspection {
             model,
             excluded_joints,
+            drive_source,
         })
+    }
+
+    /// [`RobotModel::from_urdf_str`] with drive geometry given beside the URDF (see
+    /// [`RobotModel::inspect_urdf_str_with`]).
+    pub fn from_urdf_str_with(
+        text: &str,
+        source: &str,
+        ovr: &DriveOverride,
+    ) -> Result<Self, RobotError> {
+        load_str_with_report(text, source, ovr).map(|(m, _, _)| m)
     }
 }
 

@@ -22,10 +22,11 @@ struct ScenarioFile {
     /// (see [`load_world`]).
     #[serde(default)]
     world_params: toml::Table,
-    /// The robot's URDF; a log scenario without one drives the generic robot with the log's
-    /// laser mount (`atrium_robots::generic`).
+    /// The robot's URDF, or a `[robot]` table (`urdf`, `wheel_radius`, `track`; see
+    /// `crate::robot_input`); a log scenario without one drives the generic robot with the
+    /// log's laser mount (`atrium_robots::generic`).
     #[serde(default)]
-    robot: Option<PathBuf>,
+    robot: Option<toml::Value>,
     #[serde(default)]
     seed: u64,
     /// Required for a simulated run; for a log, keeps only its first seconds.
@@ -242,6 +243,9 @@ pub struct Scenario {
     /// for a world as written). A sweep's `world.<parameter>` axis lands here.
     pub world_params: toml::Table,
     pub robot: RobotModel,
+    /// Where the robot's sensors and drive geometry came from (sensor file, URDF Gazebo
+    /// blocks, `[robot]` keys), for messages and `atrium inspect robot`.
+    pub robot_sources: crate::robot_input::RobotSources,
     pub seed: u64,
     pub duration_s: f64,
     pub physics_hz: f64,
@@ -692,13 +696,13 @@ fn resolve_world(file: &Path, dir: &Path, raw: &ScenarioFile) -> Result<Places, 
 fn resolve_robot(
     file: &Path,
     dir: &Path,
-    robot: Option<&Path>,
+    robot: Option<&toml::Value>,
     log: Option<&crate::log::RealLog>,
 ) -> Result<(PathBuf, RobotModel), ScenarioError> {
     match (robot, log) {
         (Some(r), _) => {
-            let robot_file = dir.join(r);
-            Ok((robot_file.clone(), crate::load_cache::robot(&robot_file)?))
+            let entry = crate::robot_input::parse_robot_entry(file, r)?;
+            crate::robot_input::load_robot(dir, &entry)
         }
         (None, Some(l)) => {
             let urdf = atrium_robots::generic_robot_urdf("log_robot", l.laser_mount_3());
@@ -782,6 +786,18 @@ impl Scenario {
                 ));
             }
         }
+        crate::sensor_needs::check(
+            &self.file,
+            &[(name, kind)],
+            &crate::sensor_needs::SensorsPresent {
+                lasers: &self.lasers,
+                depth_cameras: self.depth_cameras.len(),
+                landmark_detectors: self.landmark_detectors.len(),
+                wifi: self.wifi.is_some(),
+                robot: &self.robot.name,
+                source: &self.robot_sources.sensors,
+            },
+        )?;
         self.localizers.push(LocalizerSpec {
             name: name.to_string(),
             kind: kind.to_string(),
@@ -869,7 +885,7 @@ impl Scenario {
             map_settings,
         } = resolve_world(file, dir, &raw)?;
         add_clutter(file, &mut world, &raw.clutter)?;
-        let (robot_file, robot) = resolve_robot(file, dir, raw.robot.as_deref(), log.as_deref())?;
+        let (robot_file, mut robot) = resolve_robot(file, dir, raw.robot.as_ref(), log.as_deref())?;
         let duration_s = match (&log, raw.duration_s) {
             (Some(l), _) => l.duration_s(),
             (None, Some(d)) => d,
@@ -1007,11 +1023,10 @@ impl Scenario {
 
         // Sensors: the robot's sensor file, overridden by the scenario.
         let sensor_file = RobotSensors::path_beside(&robot_file);
-        let robot_sensors = if sensor_file.exists() {
-            RobotSensors::load(&sensor_file)?
-        } else {
-            RobotSensors::default()
-        };
+        // The robot's sensor file, else its URDF's Gazebo sensor blocks (a log's laser is
+        // the log's own).
+        let (robot_sensors, robot_depth_cameras, robot_sources) =
+            crate::robot_input::robot_sensors(&robot_file, &mut robot, log.is_some())?;
         let mut input_files = vec![file.to_path_buf(), world_file.clone(), robot_file.clone()];
         if let Some(g) = &grid_map {
             input_files.push(g.image.clone());
@@ -1112,13 +1127,24 @@ impl Scenario {
             landmark_detectors.push(spec);
         }
 
-        let mut depth_cameras: Vec<atrium_robots::DepthCameraSpec> = Vec::new();
+        let mut depth_cameras = robot_depth_cameras;
         for (name, value) in raw.depth_cameras.iter().flatten() {
             let field = format!("depth_cameras.{name}");
             let mut table = value
                 .as_table()
                 .ok_or_else(|| ScenarioError::field(file, &field, "must be a table"))?
                 .clone();
+            // A camera named like one of the robot's inherits that camera's values.
+            let existing = depth_cameras.iter().position(|c| &c.name == name);
+            if let Some(i) = existing {
+                if !table.contains_key("preset") {
+                    let base = toml::Table::try_from(&depth_cameras[i])
+                        .map_err(|e| ScenarioError::field(file, &field, e.to_string()))?;
+                    for (k, v) in base {
+                        table.entry(k).or_insert(v);
+                    }
+                }
+            }
             table
                 .entry("name")
                 .or_insert_with(|| toml::Value::String(name.clone()));
@@ -1135,7 +1161,10 @@ impl Scenario {
                     format!("robot {:?} has no link named {:?}", robot.name, spec.mount),
                 ));
             }
-            depth_cameras.push(spec);
+            match existing {
+                Some(i) => depth_cameras[i] = spec,
+                None => depth_cameras.push(spec),
+            }
         }
 
         let wifi = match (&raw.wifi, &robot_sensors.wifi) {
@@ -1336,6 +1365,22 @@ impl Scenario {
             }
             localizers.push(LocalizerSpec { name, kind, params });
         }
+        let named: Vec<(&str, &str)> = localizers
+            .iter()
+            .map(|l| (l.name.as_str(), l.kind.as_str()))
+            .collect();
+        crate::sensor_needs::check(
+            file,
+            &named,
+            &crate::sensor_needs::SensorsPresent {
+                lasers: &lasers,
+                depth_cameras: depth_cameras.len(),
+                landmark_detectors: landmark_detectors.len(),
+                wifi: wifi.is_some(),
+                robot: &robot.name,
+                source: &robot_sources.sensors,
+            },
+        )?;
         for key in raw.expect.keys() {
             if !localizers.iter().any(|l| &l.name == key) {
                 return Err(ScenarioError::field(
@@ -1355,6 +1400,7 @@ impl Scenario {
             world,
             world_params: raw.world_params,
             robot,
+            robot_sources,
             seed: raw.seed,
             duration_s,
             physics_hz: raw.physics_hz,
