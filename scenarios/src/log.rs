@@ -113,6 +113,10 @@ pub const REFERENCE_MAX_GAP_S: f64 = 1.0;
 /// as if the robot had made it.
 pub const REFERENCE_MAX_SPEED_M_S: f64 = 100.0;
 
+/// The largest `reference_accuracy_m`, m: every error of a run would hide below a reference
+/// worse than this (and 1e300 filled the tables with 300-digit numbers).
+pub const MAX_REFERENCE_ACCURACY_M: f64 = 100.0;
+
 /// The farthest a reference or odometry position may lie from the origin, m (as `atrium
 /// score`'s estimates): no map reaches there, and squared errors overflow to infinity.
 pub const MAX_COORDINATE_M: f64 = 1e9;
@@ -463,6 +467,18 @@ impl RealLog {
                         format!("must be finite, got {m:?}"),
                     ));
                 }
+                // A yaw past a turn is degrees (90 for a quarter turn) or garbage, and
+                // 1e300 rad is no direction at all once reduced to one turn.
+                if m[2].abs() > std::f64::consts::TAU {
+                    return Err(field(
+                        file,
+                        "laser_mount",
+                        format!(
+                            "yaw {} is more than a turn: give it in radians, within ±2π",
+                            m[2]
+                        ),
+                    ));
+                }
                 (
                     Pose2::new(m[0], m[1], m[2]),
                     "[log] laser_mount".to_string(),
@@ -625,11 +641,14 @@ impl RealLog {
         };
         let reference_accuracy = match (table.reference_accuracy_m, &relations) {
             (Some(a), _) => {
-                if !(a.is_finite() && a >= 0.0) {
+                if !(a.is_finite() && (0.0..=MAX_REFERENCE_ACCURACY_M).contains(&a)) {
                     return Err(field(
                         file,
                         "reference_accuracy_m",
-                        format!("must be a finite number >= 0, got {a}"),
+                        format!(
+                            "must be a number from 0 to {MAX_REFERENCE_ACCURACY_M} m, got {a} \
+                             (a reference that far off scores nothing)"
+                        ),
                     ));
                 }
                 Some(ReferenceAccuracy {
