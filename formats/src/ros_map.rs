@@ -475,6 +475,12 @@ pub fn write_map(grid: &OccupancyGrid, yaml_path: &Path) -> Result<(), FormatErr
         .ok_or_else(|| bad("file", "the YAML path has no usable file name".into()))?;
     let image_name = format!("{stem}.pgm");
     let pgm_path = yaml_path.with_file_name(&image_name);
+    for p in [yaml_path, pgm_path.as_path()] {
+        crate::output_path::check_replaceable(p).map_err(|err| FormatError::Write {
+            file: p.to_path_buf(),
+            err,
+        })?;
+    }
     let pgm_tmp = temp_beside(&pgm_path);
     let yaml_tmp = temp_beside(yaml_path);
     let result = (|| {
@@ -538,6 +544,25 @@ mod tests {
             height,
             cells,
         }
+    }
+
+    #[test]
+    fn a_fifo_in_place_of_the_image_is_refused_and_kept() {
+        let dir = scratch("fifo");
+        std::fs::create_dir_all(&dir).unwrap();
+        let pgm = dir.join("m.pgm");
+        let made = std::process::Command::new("mkfifo").arg(&pgm).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return; // no mkfifo on this system
+        }
+        let e = write_map(&grid(), &dir.join("m.yaml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("m.pgm") && e.contains("FIFO"), "{e}");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::metadata(&pgm).unwrap().file_type().is_fifo());
+        assert!(!dir.join("m.yaml").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

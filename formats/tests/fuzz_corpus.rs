@@ -6,10 +6,10 @@
 //! the ten-minute fuzzing itself is not run here.
 
 use atrium_formats::robot_log::RobotLog;
-use std::alloc::{GlobalAlloc, Layout, System};
 use atrium_formats::ros_map;
 use atrium_formats::ros_msgs::MessageKind;
 use proptest::prelude::*;
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -265,7 +265,10 @@ enum Damage {
 fn damage() -> impl Strategy<Value = Damage> {
     prop_oneof![
         (any::<prop::sample::Index>(), 0u8..8).prop_map(|(i, b)| Damage::Flip(i, b)),
-        (any::<prop::sample::Index>(), prop::sample::select(vec![0u8, 0xff, 0x7f, 0x80, b'\n', b' ']))
+        (
+            any::<prop::sample::Index>(),
+            prop::sample::select(vec![0u8, 0xff, 0x7f, 0x80, b'\n', b' '])
+        )
             .prop_map(|(i, v)| Damage::Set(i, v)),
         any::<prop::sample::Index>().prop_map(Damage::Truncate),
         (any::<prop::sample::Index>(), 1usize..64).prop_map(|(i, n)| Damage::Cut(i, n)),

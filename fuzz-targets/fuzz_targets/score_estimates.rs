@@ -12,7 +12,11 @@ fuzz_target!(|data: &[u8]| {
     let Some((&pick, bytes)) = data.split_first() else {
         return;
     };
-    let path = Path::new(if pick & 1 == 0 { "estimates.txt" } else { "estimates.csv" });
+    let path = Path::new(if pick & 1 == 0 {
+        "estimates.txt"
+    } else {
+        "estimates.csv"
+    });
     match Estimates::from_bytes(path, bytes.to_vec(), None) {
         Ok(e) => {
             assert!(!e.stamps.is_empty());
@@ -30,7 +34,10 @@ fuzz_target!(|data: &[u8]| {
         }
         Err(err) => {
             let text = err.to_string();
-            assert!(text.contains("estimates."), "the error does not name the file: {text}");
+            assert!(
+                text.contains("estimates."),
+                "the error does not name the file: {text}"
+            );
         }
     }
 });

@@ -146,7 +146,10 @@ fn check_reference(
     let bad = |i: usize, msg: String| ScenarioError::field(path, format!("{what}: {}", at(i)), msg);
     for (i, (_, p)) in poses.iter().enumerate() {
         if !p.is_finite() {
-            return Err(bad(i, format!("the pose ({}, {}, {}) is not finite", p.x, p.y, p.theta)));
+            return Err(bad(
+                i,
+                format!("the pose ({}, {}, {}) is not finite", p.x, p.y, p.theta),
+            ));
         }
         if p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M {
             return Err(bad(
@@ -892,7 +895,10 @@ mod tests {
         let e = check_reference(p, "reference", &jump, &at)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("ref.tum") && e.contains("line 4") && e.contains("jumps"), "{e}");
+        assert!(
+            e.contains("ref.tum") && e.contains("line 4") && e.contains("jumps"),
+            "{e}"
+        );
         // The same distance across a gap longer than REFERENCE_MAX_GAP_S is not a step.
         let mut gap = jump.clone();
         for (t, _) in &mut gap[3..] {
@@ -911,7 +917,10 @@ mod tests {
         let e = check_reference(p, "/pose", &nan, &|i| format!("message {i}"))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("/pose: message 1") && e.contains("not finite"), "{e}");
+        assert!(
+            e.contains("/pose: message 1") && e.contains("not finite"),
+            "{e}"
+        );
     }
 
     #[test]
