@@ -155,7 +155,7 @@ fn check_reference(
             return Err(bad(
                 i,
                 format!(
-                    "the position ({}, {}) is farther than {MAX_COORDINATE_M:e} m from the \
+                    "the position ({:?}, {:?}) is farther than {MAX_COORDINATE_M:e} m from the \
                      origin: no position on a map (wrong units or columns?)",
                     p.x, p.y
                 ),
@@ -477,7 +477,7 @@ impl RealLog {
                         file,
                         "laser_mount",
                         format!(
-                            "yaw {} is more than a turn: give it in radians, within ±2π",
+                            "yaw {:?} is more than a turn: give it in radians, within ±2π",
                             m[2]
                         ),
                     ));
@@ -561,7 +561,7 @@ impl RealLog {
                 &path,
                 &odom_topic,
                 format!(
-                    "the odometry position ({}, {}) at {:.6} s is farther than \
+                    "the odometry position ({:?}, {:?}) at {:.6} s is farther than \
                      {MAX_COORDINATE_M:e} m from the origin (wrong units?)",
                     p.x,
                     p.y,
@@ -649,7 +649,7 @@ impl RealLog {
                         file,
                         "reference_accuracy_m",
                         format!(
-                            "must be a number from 0 to {MAX_REFERENCE_ACCURACY_M} m, got {a} \
+                            "must be a number from 0 to {MAX_REFERENCE_ACCURACY_M} m, got {a:?} \
                              (a reference that far off scores nothing)"
                         ),
                     ));
