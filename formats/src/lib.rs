@@ -14,6 +14,7 @@
 //! | [`robot_log`] | any of the three robot logs behind one interface |
 //! | [`ros_map`] | ROS map_server maps (YAML + PGM/PNG) |
 //! | [`tum`] | TUM and CSV trajectories |
+//! | [`output_path`] | where an output may be written (no devices, FIFOs or sockets) |
 //! | [`relations`] | benchmark relations (relative poses between two stamps) |
 //! | [`sdf`] | SDF worlds for Gazebo (written) |
 
@@ -21,6 +22,7 @@ pub mod carmen;
 pub mod cdr;
 pub mod error;
 pub mod mcap;
+pub mod output_path;
 pub mod relations;
 pub mod robot_log;
 pub mod ros1;

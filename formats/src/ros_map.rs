@@ -27,6 +27,8 @@ use std::path::{Path, PathBuf};
 
 /// The largest map read or written, in cells (as `atrium_worlds::map::MAX_GRID_CELLS`).
 pub const MAX_CELLS: u64 = 200_000_000;
+/// The most bytes deflate (PNG's compression) can make of one byte.
+const MAX_DEFLATE_RATIO: usize = 1032;
 /// The coarsest resolution accepted, metres per cell.
 pub const MAX_RESOLUTION: f64 = 100.0;
 /// The default thresholds when the YAML gives none (map_saver's).
@@ -316,6 +318,23 @@ fn decode_pgm(bytes: &[u8]) -> Result<Image, String> {
     check_size(width, height)?;
     let n = (width * height) as usize;
     let scale = 255.0 / maxval as f64;
+    // The pixels must be in the file before room is made for them: a header of a few bytes
+    // claiming 200 M pixels would otherwise cost 400 MB. An ASCII sample takes at least two
+    // bytes (a digit and a separator), a binary one one or two.
+    let left = bytes.len().saturating_sub(p.pos);
+    let least = if ascii {
+        (2 * n).saturating_sub(1)
+    } else if maxval < 256 {
+        n + 1
+    } else {
+        2 * n + 1
+    };
+    if left < least {
+        return Err(format!(
+            "the image is truncated: {width} x {height} pixels need at least {least} bytes \
+             after the header, the file has {left}"
+        ));
+    }
     let mut sums = Vec::with_capacity(n);
     if ascii {
         for k in 0..n {
@@ -379,7 +398,18 @@ fn decode_png(bytes: &[u8]) -> Result<Image, String> {
     let mut reader = decoder.read_info().map_err(png_err)?;
     let (w, h) = reader.info().size();
     check_size(u64::from(w), u64::from(h))?;
-    let mut buf = vec![0u8; reader.output_buffer_size()];
+    // Deflate packs at most 1032 bytes into one: pixels claimed beyond that many times the
+    // file's size are not in it, and room for them is not made (a 100-byte PNG may claim
+    // 14,000 x 14,000 RGBA pixels, 784 MB).
+    let need = reader.output_buffer_size();
+    if need > bytes.len().saturating_mul(MAX_DEFLATE_RATIO) {
+        return Err(format!(
+            "the PNG is damaged or truncated: {w} x {h} pixels take {need} bytes, more than \
+             its {} bytes can hold",
+            bytes.len()
+        ));
+    }
+    let mut buf = vec![0u8; need];
     let frame = reader.next_frame(&mut buf).map_err(png_err)?;
     let (colours, channels) = match frame.color_type {
         png::ColorType::Grayscale => (1, 1),
@@ -445,6 +475,12 @@ pub fn write_map(grid: &OccupancyGrid, yaml_path: &Path) -> Result<(), FormatErr
         .ok_or_else(|| bad("file", "the YAML path has no usable file name".into()))?;
     let image_name = format!("{stem}.pgm");
     let pgm_path = yaml_path.with_file_name(&image_name);
+    for p in [yaml_path, pgm_path.as_path()] {
+        crate::output_path::check_replaceable(p).map_err(|err| FormatError::Write {
+            file: p.to_path_buf(),
+            err,
+        })?;
+    }
     let pgm_tmp = temp_beside(&pgm_path);
     let yaml_tmp = temp_beside(yaml_path);
     let result = (|| {
@@ -508,6 +544,25 @@ mod tests {
             height,
             cells,
         }
+    }
+
+    #[test]
+    fn a_fifo_in_place_of_the_image_is_refused_and_kept() {
+        let dir = scratch("fifo");
+        std::fs::create_dir_all(&dir).unwrap();
+        let pgm = dir.join("m.pgm");
+        let made = std::process::Command::new("mkfifo").arg(&pgm).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return; // no mkfifo on this system
+        }
+        let e = write_map(&grid(), &dir.join("m.yaml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("m.pgm") && e.contains("FIFO"), "{e}");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::metadata(&pgm).unwrap().file_type().is_fifo());
+        assert!(!dir.join("m.yaml").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
@@ -601,6 +656,20 @@ mod tests {
     }
 
     #[test]
+    fn a_png_claiming_more_pixels_than_it_can_hold_is_refused() {
+        use png::{BitDepth::Eight, ColorType::Rgba};
+        let mut b = png(Rgba, Eight, 1, 1, &[0, 0, 0, 255]);
+        // IHDR's width and height (bytes 16..24), and its CRC (29..33) made to match: 784 MB
+        // of pixels in 70 bytes.
+        b[16..20].copy_from_slice(&14000u32.to_be_bytes());
+        b[20..24].copy_from_slice(&14000u32.to_be_bytes());
+        let crc = crc32fast::hash(&b[12..29]);
+        b[29..33].copy_from_slice(&crc.to_be_bytes());
+        let e = decode_image(&b).unwrap_err();
+        assert!(e.contains("more than its"), "{e}");
+    }
+
+    #[test]
     fn png_colour_types_are_averaged() {
         use png::{BitDepth::*, ColorType::*};
         let cases: Vec<(Vec<u8>, Vec<Cell>)> = vec![
@@ -673,6 +742,9 @@ mod tests {
             (b"P2 2 1 15 1 16", "pixel 1 is 16"),
             (b"P6 1 1 255 abc", "not a PGM"),
             (b"P5 2 1 255 \x00", "truncated"),
+            // 196 M pixels claimed by a 20-byte file: refused before room is made for them.
+            (b"P5 14000 14000 255 ", "need at least 196000001 bytes"),
+            (b"P2 14000 14000 255 0 ", "need at least 391999999 bytes"),
         ] {
             let e = decode_image(bytes).unwrap_err();
             assert!(e.contains(want), "{e}");

@@ -151,6 +151,7 @@ pub fn check_output(path: &Path) -> Result<(), ScenarioError> {
             return Err(fail("the file is read-only".into()));
         }
     }
+    atrium_formats::output_path::check_replaceable(path).map_err(|e| fail(e.to_string()))?;
     Ok(())
 }
 

@@ -141,6 +141,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let file_name = path
         .file_name()
         .ok_or_else(|| std::io::Error::other(format!("{}: not a file path", path.display())))?;
+    atrium_formats::output_path::check_replaceable(path)?;
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(file_name);
     static CALLS: AtomicU64 = AtomicU64::new(0);
@@ -158,4 +159,30 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fifo_is_not_replaced_by_a_written_file() {
+        let dir = std::env::temp_dir().join(format!("atrium-atomic-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("out.html");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return; // no mkfifo on this system
+        }
+        let e = write_atomic(&fifo, b"report").unwrap_err().to_string();
+        assert!(e.contains("FIFO"), "{e}");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        // Nothing left behind under a temporary name either.
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        write_atomic(&dir.join("plain.html"), b"report").unwrap();
+        assert_eq!(std::fs::read(dir.join("plain.html")).unwrap(), b"report");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

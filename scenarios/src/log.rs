@@ -107,6 +107,81 @@ pub const LOG_LASER_LINK: &str = "laser";
 /// every scan (a few Hz) is dense, and a longer gap is a stretch it does not cover.
 pub const REFERENCE_MAX_GAP_S: f64 = 1.0;
 
+/// The fastest a reference may move between two poses less than [`REFERENCE_MAX_GAP_S`]
+/// apart, m/s. No ground robot drives at 100 m/s: a faster step is a jump (poses of another
+/// frame or run spliced in, a unit error), which runs would be scored and calibrated against
+/// as if the robot had made it.
+pub const REFERENCE_MAX_SPEED_M_S: f64 = 100.0;
+
+/// The largest `reference_accuracy_m`, m: every error of a run would hide below a reference
+/// worse than this (and 1e300 filled the tables with 300-digit numbers).
+pub const MAX_REFERENCE_ACCURACY_M: f64 = 100.0;
+
+/// The farthest a reference or odometry position may lie from the origin, m (as `atrium
+/// score`'s estimates): no map reaches there, and squared errors overflow to infinity.
+pub const MAX_COORDINATE_M: f64 = 1e9;
+
+/// A quaternion shorter than this is no rotation: its yaw would silently read as 0.
+const MIN_QUATERNION_NORM: f64 = 1e-6;
+
+/// Why a quaternion (x, y, z, w) is no rotation, if it is not one.
+fn not_a_rotation(q: [f64; 4]) -> Option<String> {
+    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    (!(norm.is_finite() && norm > MIN_QUATERNION_NORM)).then(|| {
+        format!(
+            "orientation quaternion ({}, {}, {}, {}) is not a rotation",
+            q[0], q[1], q[2], q[3]
+        )
+    })
+}
+
+/// Checks reference poses (run time): finite, on a map, and no faster than
+/// [`REFERENCE_MAX_SPEED_M_S`] between neighbours; `at` names pose `i` for the message.
+fn check_reference(
+    path: &Path,
+    what: &str,
+    poses: &[(f64, Pose2)],
+    at: &dyn Fn(usize) -> String,
+) -> Result<(), ScenarioError> {
+    let bad = |i: usize, msg: String| ScenarioError::field(path, format!("{what}: {}", at(i)), msg);
+    for (i, (_, p)) in poses.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(bad(
+                i,
+                format!("the pose ({}, {}, {}) is not finite", p.x, p.y, p.theta),
+            ));
+        }
+        if p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M {
+            return Err(bad(
+                i,
+                format!(
+                    "the position ({:?}, {:?}) is farther than {MAX_COORDINATE_M:e} m from the \
+                     origin: no position on a map (wrong units or columns?)",
+                    p.x, p.y
+                ),
+            ));
+        }
+    }
+    for (i, w) in poses.windows(2).enumerate() {
+        let ((t0, a), (t1, b)) = (w[0], w[1]);
+        let dt = t1 - t0;
+        let d = (b.x - a.x).hypot(b.y - a.y);
+        if dt > 0.0 && dt <= REFERENCE_MAX_GAP_S && d > REFERENCE_MAX_SPEED_M_S * dt {
+            return Err(bad(
+                i + 1,
+                format!(
+                    "the reference jumps {d:.3} m in {dt:.3} s from {} ({:.0} m/s, more than \
+                     {REFERENCE_MAX_SPEED_M_S} m/s): no robot moves so; remove the jump or \
+                     split the log",
+                    at(i),
+                    d / dt
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn field(file: &Path, key: &str, msg: impl Into<String>) -> ScenarioError {
     ScenarioError::field(file, format!("log.{key}"), msg)
 }
@@ -395,6 +470,18 @@ impl RealLog {
                         format!("must be finite, got {m:?}"),
                     ));
                 }
+                // A yaw past a turn is degrees (90 for a quarter turn) or garbage, and
+                // 1e300 rad is no direction at all once reduced to one turn.
+                if m[2].abs() > std::f64::consts::TAU {
+                    return Err(field(
+                        file,
+                        "laser_mount",
+                        format!(
+                            "yaw {:?} is more than a turn: give it in radians, within ±2π",
+                            m[2]
+                        ),
+                    ));
+                }
                 (
                     Pose2::new(m[0], m[1], m[2]),
                     "[log] laser_mount".to_string(),
@@ -438,6 +525,17 @@ impl RealLog {
             .filter(|s| s.header.stamp <= end)
             .map(|s| scan_reading(s, &sensor, mount, t0))
             .collect();
+        if let Some((i, why)) = odom
+            .iter()
+            .enumerate()
+            .find_map(|(i, o)| not_a_rotation(o.orientation).map(|w| (i, w)))
+        {
+            return Err(ScenarioError::field(
+                &path,
+                &odom_topic,
+                format!("message {i}: {why}"),
+            ));
+        }
         let odometry: Vec<(f64, Pose2)> = odom
             .iter()
             .filter(|o| o.header.stamp <= end + 1.0)
@@ -453,6 +551,22 @@ impl RealLog {
                 &path,
                 &odom_topic,
                 format!("the odometry pose at {:.6} s is not finite: {p:?}", t + t0),
+            ));
+        }
+        if let Some((t, p)) = odometry
+            .iter()
+            .find(|(_, p)| p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M)
+        {
+            return Err(ScenarioError::field(
+                &path,
+                &odom_topic,
+                format!(
+                    "the odometry position ({:?}, {:?}) at {:.6} s is farther than \
+                     {MAX_COORDINATE_M:e} m from the origin (wrong units?)",
+                    p.x,
+                    p.y,
+                    t + t0
+                ),
             ));
         }
         let laser = LaserSpec {
@@ -530,11 +644,14 @@ impl RealLog {
         };
         let reference_accuracy = match (table.reference_accuracy_m, &relations) {
             (Some(a), _) => {
-                if !(a.is_finite() && a >= 0.0) {
+                if !(a.is_finite() && (0.0..=MAX_REFERENCE_ACCURACY_M).contains(&a)) {
                     return Err(field(
                         file,
                         "reference_accuracy_m",
-                        format!("must be a finite number >= 0, got {a}"),
+                        format!(
+                            "must be a number from 0 to {MAX_REFERENCE_ACCURACY_M} m, got {a:?} \
+                             (a reference that far off scores nothing)"
+                        ),
                     ));
                 }
                 Some(ReferenceAccuracy {
@@ -709,19 +826,28 @@ fn load_reference(
             }
             let poses = log.poses(spec)?;
             check_order(log.path(), spec, poses.iter().map(|p| p.header.stamp))?;
-            (
-                poses
-                    .iter()
-                    .map(|p| {
-                        (
-                            p.header.stamp - t0,
-                            Pose2::new(p.position[0], p.position[1], yaw_of(p.orientation)),
-                        )
-                    })
-                    .collect(),
-                format!("topic {spec} of the log"),
-                None,
-            )
+            if let Some((i, why)) = poses
+                .iter()
+                .enumerate()
+                .find_map(|(i, p)| not_a_rotation(p.orientation).map(|w| (i, w)))
+            {
+                return Err(ScenarioError::field(
+                    log.path(),
+                    spec,
+                    format!("message {i}: {why}"),
+                ));
+            }
+            let poses: Vec<(f64, Pose2)> = poses
+                .iter()
+                .map(|p| {
+                    (
+                        p.header.stamp - t0,
+                        Pose2::new(p.position[0], p.position[1], yaw_of(p.orientation)),
+                    )
+                })
+                .collect();
+            check_reference(log.path(), spec, &poses, &|i| format!("message {i}"))?;
+            (poses, format!("topic {spec} of the log"), None)
         }
         None => {
             let path = dir.join(spec);
@@ -738,11 +864,11 @@ fn load_reference(
             }
             let rows = atrium_formats::tum::read_file(&path)?;
             check_order(&path, "reference", rows.iter().map(|r| r.t))?;
-            (
-                rows.iter().map(|r| (r.t - t0, r.pose)).collect(),
-                path.display().to_string(),
-                Some(path.clone()),
-            )
+            let poses: Vec<(f64, Pose2)> = rows.iter().map(|r| (r.t - t0, r.pose)).collect();
+            check_reference(&path, "reference", &poses, &|i| {
+                format!("line {}", rows[i].line)
+            })?;
+            (poses, path.display().to_string(), Some(path.clone()))
         }
     };
     if poses.is_empty() {
@@ -754,6 +880,57 @@ fn load_reference(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn references_that_jump_or_leave_every_map_are_refused() {
+        let p = Path::new("ref.tum");
+        let at = |i: usize| format!("line {}", i + 1);
+        let walk: Vec<(f64, Pose2)> = (0..5)
+            .map(|k| (0.2 * k as f64, Pose2::new(0.1 * k as f64, 0.0, 0.0)))
+            .collect();
+        assert!(check_reference(p, "reference", &walk, &at).is_ok());
+        // 500 m in 0.2 s: a spliced-in pose, not a drive.
+        let mut jump = walk.clone();
+        jump[3].1.x += 500.0;
+        let e = check_reference(p, "reference", &jump, &at)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("ref.tum") && e.contains("line 4") && e.contains("jumps"),
+            "{e}"
+        );
+        // The same distance across a gap longer than REFERENCE_MAX_GAP_S is not a step.
+        let mut gap = jump.clone();
+        for (t, _) in &mut gap[3..] {
+            *t += 100.0;
+        }
+        gap[4].1.x += 500.0;
+        assert!(check_reference(p, "reference", &gap, &at).is_ok());
+        let mut far = walk.clone();
+        far[2].1.y = 1e300;
+        let e = check_reference(p, "reference", &far, &at)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3") && e.contains("farther than"), "{e}");
+        let mut nan = walk;
+        nan[1].1.theta = f64::NAN;
+        let e = check_reference(p, "/pose", &nan, &|i| format!("message {i}"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("/pose: message 1") && e.contains("not finite"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn zero_and_nan_quaternions_are_no_rotation() {
+        assert!(not_a_rotation([0.0, 0.0, 0.0, 1.0]).is_none());
+        assert!(not_a_rotation([0.0, 0.0, 0.7, 0.7]).is_none());
+        assert!(not_a_rotation([0.0; 4]).is_some());
+        assert!(not_a_rotation([f64::NAN, 0.0, 0.0, 1.0]).is_some());
+        assert!(not_a_rotation([0.0, 0.0, f64::INFINITY, 1.0]).is_some());
+    }
 
     #[test]
     fn sensor_names_from_topics() {

@@ -81,6 +81,17 @@ impl Estimates {
             file: path.to_path_buf(),
             err,
         })?;
+        Self::from_bytes(path, bytes, topic)
+    }
+
+    /// Reads a file's contents, as [`Estimates::read`] does once the file is read; `path`
+    /// names it in errors and decides CSV by its extension. The entry point of the fuzz
+    /// harness (`fuzz-targets/`).
+    pub fn from_bytes(
+        path: &Path,
+        bytes: Vec<u8>,
+        topic: Option<&str>,
+    ) -> Result<Estimates, ScenarioError> {
         if bytes.starts_with(mcap::MAGIC) {
             return read_mcap(path, &bytes, topic);
         }

@@ -626,6 +626,18 @@ pub fn fit_laser(
         ));
     }
 
+    // Without returns the hit's σ and the short and random weights have nothing to be fitted
+    // to: EM would report its starting values as a fit (a log of no-returns only, or ranges
+    // in other units than range_max).
+    let returns = beams.iter().filter(|b| !b.no_return).count();
+    if returns < MIN_BEAMS {
+        return Err(format!(
+            "only {returns} of the {} beams that meet a wall the map knows return a range \
+             below range_max = {range_max} m; at least {MIN_BEAMS} are needed to fit the \
+             laser (do the scans hold ranges in metres, is range_max the laser's?)",
+            beams.len()
+        ));
+    }
     // Start the hit from a robust spread of the residuals (MAD), the rest from small
     // weights: EM only finds the optimum near where it starts.
     let mut residuals: Vec<f64> = beams
@@ -939,6 +951,14 @@ mod tests {
         let blank = grid(10, 10, [0.0, 0.0], Cell::Free);
         let e = fit_laser(&blank, &[good], 20.0).unwrap_err();
         assert!(e.contains("no occupied cell"), "{e}");
+        // Every beam a no-return: nothing to fit the hit to.
+        let far = vec![20.0; 360];
+        let none = ScanAtPose {
+            ranges: &far,
+            ..good
+        };
+        let e = fit_laser(&g, &[none], 20.0).unwrap_err();
+        assert!(e.contains("only 0 of the"), "{e}");
     }
 
     /// The fit on Freiburg 079's real log and map, printed (`cargo test --release -p
