@@ -933,12 +933,17 @@ fn main_inner(registry: &LocalizerRegistry, cli: Cli) -> Result<bool, BadInput> 
     }
 }
 
+/// Set once an interrupt is being handled: the run's own failure that ending its process
+/// localizers causes is then not the command's error (the handler exits with 130).
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// Ctrl-C, SIGTERM or SIGHUP remove the files being written under temporary names (a
 /// recording's `.partial`, an atomic write's temporary) and exit with 130, so an interrupted
 /// command leaves its output folder as it found it; a sweep's appended `results.csv` stays for
 /// `--resume`. Only SIGKILL still leaves a `.partial` (a later `record` replaces it).
 fn remove_unfinished_on_interrupt() {
     let installed = ctrlc::set_handler(|| {
+        INTERRUPTED.store(true, std::sync::atomic::Ordering::SeqCst);
         for file in atrium_scenarios::output::remove_unfinished() {
             eprintln!("interrupted: removed unfinished {}", file.display());
         }
@@ -964,6 +969,12 @@ pub fn main_with(registry: LocalizerRegistry) -> ExitCode {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         Err(BadInput(e)) => {
+            if INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+                // The handler is ending the process with 130; wait for it.
+                loop {
+                    std::thread::park();
+                }
+            }
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
