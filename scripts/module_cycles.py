@@ -40,60 +40,10 @@ import os
 import re
 import sys
 
+from rust_source import strip
+
 IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
 KEYWORDS = {"crate", "super", "self", "$crate"}
-
-
-def strip(text):
-    """Blanks comments (doc comments too), string and char literals, keeping offsets and lines."""
-    out = list(text)
-    i, n = 0, len(text)
-
-    def blank(a, b):
-        for k in range(a, b):
-            if out[k] != "\n":
-                out[k] = " "
-
-    while i < n:
-        c = text[i]
-        if text.startswith("//", i):
-            j = text.find("\n", i)
-            j = n if j < 0 else j
-            blank(i, j)
-            i = j
-        elif text.startswith("/*", i):
-            depth, j = 1, i + 2
-            while j < n and depth:
-                if text.startswith("/*", j):
-                    depth, j = depth + 1, j + 2
-                elif text.startswith("*/", j):
-                    depth, j = depth - 1, j + 2
-                else:
-                    j += 1
-            blank(i, j)
-            i = j
-        elif c in "rb" and re.match(r"(br|r)#*\"", text[i:i + 260]) and (i == 0 or not re.match(r"\w", text[i - 1])):
-            m = re.match(r"(br|r)(#*)\"", text[i:])
-            end = text.find('"' + m.group(2), i + m.end())
-            end = n if end < 0 else end + 1 + len(m.group(2))
-            blank(i, end)
-            i = end
-        elif c == '"':
-            j = i + 1
-            while j < n and text[j] != '"':
-                j += 2 if text[j] == "\\" else 1
-            blank(i, j + 1)
-            i = j + 1
-        elif c == "'":
-            m = re.match(r"'(\\(x[0-9a-fA-F]{2}|u\{[0-9a-fA-F]+\}|.)|[^\\'\n])'", text[i:i + 16])
-            if m:
-                blank(i, i + m.end())
-                i += m.end()
-            else:
-                i += 1
-        else:
-            i += 1
-    return "".join(out)
 
 
 def inline_mods(code):
